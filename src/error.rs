@@ -1,0 +1,185 @@
+//! One error type for the whole pipeline.
+//!
+//! Every failure a user can cause (a bad file, an impossible option, a grid
+//! that does not fit in memory) is a variant here with a message that says
+//! what to change. Nothing in the library panics on bad input.
+
+use std::fmt;
+
+/// The mesh file formats the loaders understand.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// glTF 2.0, binary (`.glb`) or JSON (`.gltf`).
+    Gltf,
+    /// Wavefront OBJ.
+    Obj,
+    /// Stanford PLY, ASCII or binary.
+    Ply,
+    /// STL, ASCII or binary.
+    Stl,
+}
+
+impl Format {
+    /// The format a file extension names, if any (case-insensitive, without the dot).
+    pub fn from_extension(ext: &str) -> Option<Format> {
+        match ext.to_ascii_lowercase().as_str() {
+            "glb" | "gltf" => Some(Format::Gltf),
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            "stl" => Some(Format::Stl),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Gltf => "glTF",
+            Format::Obj => "OBJ",
+            Format::Ply => "PLY",
+            Format::Stl => "STL",
+        })
+    }
+}
+
+/// Everything that can go wrong, from bytes to instances.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The bytes are not any supported mesh format.
+    #[error(
+        "unrecognized mesh data: expected glTF (.glb/.gltf), OBJ, PLY or STL{}",
+        if *.len == 0 { " (the input is empty)".to_string() } else { String::new() }
+    )]
+    UnknownFormat {
+        /// Size of the input in bytes.
+        len: usize,
+    },
+
+    /// The file claims a format but its content is malformed or cut short.
+    #[error("malformed {format} data ({location}): {message}")]
+    Malformed {
+        /// The format being parsed.
+        format: Format,
+        /// Where: a line number, a byte offset or a glTF object.
+        location: String,
+        /// What is wrong, in words.
+        message: String,
+    },
+
+    /// A glTF file refers to an external buffer that was not supplied.
+    #[error(
+        "glTF buffer '{uri}' is not available: put it beside the .gltf file or use a .glb with embedded buffers"
+    )]
+    MissingResource {
+        /// The URI as written in the file.
+        uri: String,
+    },
+
+    /// The file parsed but holds no usable triangle.
+    #[error("the mesh has no triangles{}", if *.degenerate > 0 { format!(" ({} degenerate ones were ignored)", .degenerate) } else { String::new() })]
+    EmptyMesh {
+        /// Triangles dropped because they had no area.
+        degenerate: usize,
+    },
+
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate {value:?}: the mesh is corrupt")]
+    NonFiniteCoordinate {
+        /// Index of the offending vertex.
+        vertex: usize,
+        /// The offending value.
+        value: f32,
+    },
+
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {vertex}, but the mesh has only {vertices} vertices")]
+    IndexOutOfRange {
+        /// Index of the offending triangle.
+        triangle: usize,
+        /// The vertex index it uses.
+        vertex: u64,
+        /// The number of vertices.
+        vertices: usize,
+    },
+
+    /// The voxel grid (or a scratch buffer of its size) would not fit the memory cap.
+    #[error(
+        "a {dims:?} voxel grid needs about {} MiB, above the cap of {} MiB: lower the resolution (now {resolution})",
+        .bytes >> 20, .cap >> 20
+    )]
+    GridTooLarge {
+        /// Voxels along x, y, z.
+        dims: [u64; 3],
+        /// Estimated bytes needed.
+        bytes: u64,
+        /// The cap in bytes.
+        cap: u64,
+        /// The requested resolution.
+        resolution: u32,
+    },
+
+    /// The template is too small for the voxel size to describe it.
+    #[error(
+        "the template's smallest radius is {radius_voxels:.2} voxels; raise the resolution or use a larger template (at least {min_voxels} voxels are needed)"
+    )]
+    TemplateTooSmall {
+        /// The smallest onion radius in voxels.
+        radius_voxels: f64,
+        /// The minimum accepted.
+        min_voxels: f64,
+    },
+
+    /// The selection sphere contains no part of the scene's surface.
+    #[error(
+        "the selection sphere (centre {center:?}, radius {radius}) touches no surface: the nearest surface point is {distance:.4} away from its centre"
+    )]
+    SelectionMissesScene {
+        /// Centre as given.
+        center: [f64; 3],
+        /// Radius as given.
+        radius: f64,
+        /// Distance from the centre to the nearest surface point.
+        distance: f64,
+    },
+
+    /// An option has a value the matcher cannot use.
+    #[error("invalid option {name}: {message}")]
+    InvalidOption {
+        /// The option's name.
+        name: &'static str,
+        /// Why the value is rejected and what is accepted.
+        message: String,
+    },
+
+    /// The caller's observer asked to stop.
+    #[error("the search was cancelled")]
+    Cancelled,
+}
+
+/// The library's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Shorthand for a [`Error::Malformed`].
+    pub(crate) fn malformed(
+        format: Format,
+        location: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Error {
+        Error::Malformed {
+            format,
+            location: location.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Shorthand for an [`Error::InvalidOption`].
+    pub(crate) fn invalid_option(name: &'static str, message: impl Into<String>) -> Error {
+        Error::InvalidOption {
+            name,
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,7 @@
+//! fast-reject: find every occurrence of a template shape in a 3D scene.
+
+pub mod error;
+pub mod math;
+pub mod mesh;
+
+pub use error::{Error, Format, Result};

@@ -1,0 +1,166 @@
+//! Mesh loaders: bytes in, [`TriMesh`] out.
+//!
+//! Each format has its own module; this one picks the loader from an explicit
+//! [`Format`] or, when none is given, from the content itself. Loaders never
+//! touch the file system: a `.gltf` that refers to an external `.bin` asks a
+//! [`ResourceResolver`] for it (the CLI resolves names beside the file; the
+//! browser passes dropped files).
+//!
+//! Every loader fails with [`Error::Malformed`] on content it cannot parse,
+//! including truncated files, and never panics.
+
+mod gltf;
+mod obj;
+mod ply;
+mod stl;
+
+use super::TriMesh;
+use crate::error::{Error, Format, Result};
+
+/// Supplies the external files a `.gltf` refers to by relative URI.
+pub trait ResourceResolver {
+    /// The bytes of the resource named `uri`, or `None` when it is not available.
+    fn resolve(&self, uri: &str) -> Option<Vec<u8>>;
+}
+
+/// A resolver that has nothing: every external reference is an error.
+pub struct NoResources;
+
+impl ResourceResolver for NoResources {
+    fn resolve(&self, _uri: &str) -> Option<Vec<u8>> {
+        None
+    }
+}
+
+impl<F: Fn(&str) -> Option<Vec<u8>>> ResourceResolver for F {
+    fn resolve(&self, uri: &str) -> Option<Vec<u8>> {
+        self(uri)
+    }
+}
+
+/// Loads a mesh from bytes; `format` `None` means: recognize it from the content.
+pub fn load(bytes: &[u8], format: Option<Format>) -> Result<TriMesh> {
+    load_with_resources(bytes, format, &NoResources)
+}
+
+/// Like [`load`], with a resolver for external glTF buffers.
+pub fn load_with_resources(
+    bytes: &[u8],
+    format: Option<Format>,
+    resources: &dyn ResourceResolver,
+) -> Result<TriMesh> {
+    let format = match format {
+        Some(f) => f,
+        None => sniff(bytes).ok_or(Error::UnknownFormat { len: bytes.len() })?,
+    };
+    if bytes.is_empty() {
+        return Err(Error::malformed(format, "start", "the input is empty"));
+    }
+    match format {
+        Format::Gltf => gltf::parse(bytes, resources),
+        Format::Obj => obj::parse(bytes),
+        Format::Ply => ply::parse(bytes),
+        Format::Stl => stl::parse(bytes),
+    }
+}
+
+/// Recognizes a format from the first bytes (and, for binary STL, the length).
+pub fn sniff(bytes: &[u8]) -> Option<Format> {
+    if bytes.starts_with(b"glTF") {
+        return Some(Format::Gltf);
+    }
+    if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
+        return Some(Format::Ply);
+    }
+    // A binary STL's length is fixed by its triangle count: check it before the
+    // ASCII "solid" keyword, which binary headers often carry too.
+    if bytes.len() >= 84 {
+        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+        if 84 + 50 * n == bytes.len() as u64 {
+            return Some(Format::Stl);
+        }
+    }
+    let text = trim_start(bytes);
+    if text.starts_with(b"{") {
+        return Some(Format::Gltf);
+    }
+    if text.len() >= 5 && text[..5].eq_ignore_ascii_case(b"solid") {
+        return Some(Format::Stl);
+    }
+    if looks_like_obj(text) {
+        return Some(Format::Obj);
+    }
+    None
+}
+
+/// Skips a UTF-8 byte order mark and leading whitespace.
+fn trim_start(bytes: &[u8]) -> &[u8] {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let start = bytes
+        .iter()
+        .position(|b| !b.is_ascii_whitespace())
+        .unwrap_or(bytes.len());
+    &bytes[start..]
+}
+
+/// OBJ has no magic: accept text whose first statements are OBJ keywords.
+fn looks_like_obj(text: &[u8]) -> bool {
+    const KEYWORDS: [&[u8]; 12] = [
+        b"v", b"vn", b"vt", b"vp", b"f", b"o", b"g", b"s", b"mtllib", b"usemtl", b"l", b"p",
+    ];
+    let head = &text[..text.len().min(4096)];
+    let mut statements = 0;
+    for line in head.split(|&b| b == b'\n') {
+        let line = trim_start(line);
+        if line.is_empty() || line[0] == b'#' {
+            continue;
+        }
+        let word = line
+            .split(|b| b.is_ascii_whitespace())
+            .next()
+            .unwrap_or_default();
+        if !KEYWORDS.contains(&word) {
+            return false;
+        }
+        statements += 1;
+        if word == b"v" || word == b"f" || statements >= 8 {
+            return true;
+        }
+    }
+    statements > 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sniffs_each_format() {
+        assert_eq!(sniff(b"glTF\x02\0\0\0"), Some(Format::Gltf));
+        assert_eq!(sniff(b"  {\"asset\":{}}"), Some(Format::Gltf));
+        assert_eq!(sniff(b"ply\nformat ascii 1.0\n"), Some(Format::Ply));
+        assert_eq!(sniff(b"solid x\nendsolid x\n"), Some(Format::Stl));
+        assert_eq!(sniff(b"# comment\nv 0 0 0\n"), Some(Format::Obj));
+        let mut binary_stl = vec![0u8; 84 + 50];
+        binary_stl[..5].copy_from_slice(b"solid");
+        binary_stl[80] = 1;
+        assert_eq!(sniff(&binary_stl), Some(Format::Stl));
+        assert_eq!(sniff(b"hello world"), None);
+        assert_eq!(sniff(b""), None);
+    }
+
+    #[test]
+    fn unknown_and_empty_inputs_are_typed_errors() {
+        assert!(matches!(
+            load(b"", None),
+            Err(Error::UnknownFormat { len: 0 })
+        ));
+        assert!(matches!(
+            load(&[0xde, 0xad, 0xbe, 0xef], None),
+            Err(Error::UnknownFormat { .. })
+        ));
+        for f in [Format::Gltf, Format::Obj, Format::Ply, Format::Stl] {
+            assert!(matches!(load(b"", Some(f)), Err(Error::Malformed { .. })));
+        }
+    }
+}

@@ -1,0 +1,194 @@
+//! Triangle meshes: the common form every loader produces and every later
+//! stage reads.
+//!
+//! A [`TriMesh`] is a triangle soup with shared vertices, already in world
+//! coordinates (glTF node transforms applied). Construction validates it once,
+//! so the rest of the pipeline can trust it: every coordinate is finite, every
+//! index is in range, and triangles without area are dropped (counted in
+//! [`TriMesh::degenerate_dropped`]) rather than rejected, because real files
+//! often carry a few.
+
+mod bounding_sphere;
+mod closest_point;
+pub mod io;
+mod weld;
+
+pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
+pub use closest_point::{ClosestPoint, closest_point_on_triangle};
+pub use weld::weld_vertices;
+
+use crate::error::{Error, Result};
+use crate::math::{Aabb, Vec3};
+
+/// A validated triangle mesh.
+#[derive(Clone, Debug)]
+pub struct TriMesh {
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    degenerate_dropped: usize,
+}
+
+impl TriMesh {
+    /// Validates positions and triangles into a mesh.
+    ///
+    /// Fails on a non-finite coordinate, an index out of range, or when no
+    /// triangle with area is left; drops triangles with repeated corners or
+    /// zero area.
+    pub fn new(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> Result<TriMesh> {
+        for (vertex, p) in positions.iter().enumerate() {
+            if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
+                return Err(Error::NonFiniteCoordinate { vertex, value });
+            }
+        }
+        let n = positions.len();
+        let mut kept = Vec::with_capacity(triangles.len());
+        let mut degenerate_dropped = 0;
+        for (triangle, t) in triangles.into_iter().enumerate() {
+            if let Some(&vertex) = t.iter().find(|&&i| i as usize >= n) {
+                return Err(Error::IndexOutOfRange {
+                    triangle,
+                    vertex: vertex as u64,
+                    vertices: n,
+                });
+            }
+            if is_degenerate(&positions, t) {
+                degenerate_dropped += 1;
+            } else {
+                kept.push(t);
+            }
+        }
+        if kept.is_empty() {
+            return Err(Error::EmptyMesh {
+                degenerate: degenerate_dropped,
+            });
+        }
+        Ok(TriMesh {
+            positions,
+            triangles: kept,
+            degenerate_dropped,
+        })
+    }
+
+    /// Vertex positions.
+    pub fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+
+    /// Triangles as vertex index triples.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// How many triangles without area construction dropped.
+    pub fn degenerate_dropped(&self) -> usize {
+        self.degenerate_dropped
+    }
+
+    /// Position of vertex `i`.
+    pub fn vertex(&self, i: u32) -> Vec3 {
+        Vec3::from_f32(self.positions[i as usize])
+    }
+
+    /// The three corners of triangle `t`.
+    pub fn corners(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[t];
+        [self.vertex(a), self.vertex(b), self.vertex(c)]
+    }
+
+    /// Bounding box of the vertices that triangles use.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::around(self.triangles.iter().flatten().map(|&i| self.vertex(i)))
+            .expect("a TriMesh always has a triangle")
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                (b - a).cross(c - a).norm() * 0.5
+            })
+            .sum()
+    }
+
+    /// The point of the surface nearest to `p` (exhaustive: meant for one-off
+    /// queries such as snapping a template centre, not for inner loops).
+    pub fn closest_point(&self, p: Vec3) -> ClosestPoint {
+        (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                closest_point_on_triangle(p, a, b, c, t)
+            })
+            .min_by(|x, y| x.distance2.total_cmp(&y.distance2))
+            .expect("a TriMesh always has a triangle")
+    }
+
+    /// Appends another mesh (used to merge the primitives of a scene).
+    pub fn append(&mut self, other: &TriMesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+        self.degenerate_dropped += other.degenerate_dropped;
+    }
+}
+
+/// A triangle has no area when two corners coincide or all three are collinear.
+fn is_degenerate(positions: &[[f32; 3]], [a, b, c]: [u32; 3]) -> bool {
+    if a == b || b == c || a == c {
+        return true;
+    }
+    let pa = Vec3::from_f32(positions[a as usize]);
+    let pb = Vec3::from_f32(positions[b as usize]);
+    let pc = Vec3::from_f32(positions[c as usize]);
+    (pb - pa).cross(pc - pa).norm2() == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drops_degenerate_triangles_and_keeps_the_rest() {
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [2.0, 0.0, 0.0]];
+        let m = TriMesh::new(p, vec![[0, 1, 2], [0, 1, 1], [0, 1, 3]]).unwrap();
+        assert_eq!(m.triangles(), &[[0, 1, 2]]);
+        assert_eq!(m.degenerate_dropped(), 2);
+    }
+
+    #[test]
+    fn only_degenerate_triangles_is_an_empty_mesh() {
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
+        let e = TriMesh::new(p, vec![[0, 1, 2]]).unwrap_err();
+        assert!(matches!(e, Error::EmptyMesh { degenerate: 1 }), "{e}");
+    }
+
+    #[test]
+    fn no_triangles_is_an_empty_mesh() {
+        let e = TriMesh::new(vec![[0.0; 3]], vec![]).unwrap_err();
+        assert!(matches!(e, Error::EmptyMesh { degenerate: 0 }), "{e}");
+    }
+
+    #[test]
+    fn nan_and_infinity_are_rejected() {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let p = vec![[0.0, 0.0, 0.0], [1.0, bad, 0.0], [0.0, 1.0, 0.0]];
+            let e = TriMesh::new(p, vec![[0, 1, 2]]).unwrap_err();
+            assert!(
+                matches!(e, Error::NonFiniteCoordinate { vertex: 1, .. }),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn out_of_range_index_is_rejected() {
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let e = TriMesh::new(p, vec![[0, 1, 7]]).unwrap_err();
+        assert!(matches!(e, Error::IndexOutOfRange { vertex: 7, .. }), "{e}");
+    }
+}
