@@ -94,7 +94,9 @@ pub enum Error {
     },
 
     /// A triangle refers to a vertex that does not exist.
-    #[error("triangle {triangle} refers to vertex {vertex}, but the mesh has only {vertices} vertices")]
+    #[error(
+        "triangle {triangle} refers to vertex {vertex}, but the mesh has only {vertices} vertices"
+    )]
     IndexOutOfRange {
         /// Index of the offending triangle.
         triangle: usize,

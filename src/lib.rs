@@ -5,3 +5,5 @@ pub mod math;
 pub mod mesh;
 
 pub use error::{Error, Format, Result};
+pub mod exec;
+pub mod voxel;

@@ -150,10 +150,16 @@ impl Aabb {
     pub fn around(points: impl IntoIterator<Item = Vec3>) -> Option<Aabb> {
         let mut it = points.into_iter();
         let first = it.next()?;
-        Some(it.fold(Aabb { min: first, max: first }, |b, p| Aabb {
-            min: b.min.min(p),
-            max: b.max.max(p),
-        }))
+        Some(it.fold(
+            Aabb {
+                min: first,
+                max: first,
+            },
+            |b, p| Aabb {
+                min: b.min.min(p),
+                max: b.max.max(p),
+            },
+        ))
     }
 
     /// Side lengths.
@@ -170,5 +176,42 @@ impl Aabb {
     pub fn distance_to(&self, p: Vec3) -> f64 {
         let d = (self.min - p).max(p - self.max).max(Vec3::ZERO);
         d.norm()
+    }
+}
+
+/// `x.floor()` without a libm call (baseline x86-64 has no rounding
+/// instruction and the voxel loops round a lot); exact for |x| < 2^62.
+#[inline]
+pub fn floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x { t - 1.0 } else { t }
+}
+
+/// `x.ceil()` without a libm call; exact for |x| < 2^62.
+#[inline]
+pub fn ceil(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t < x { t + 1.0 } else { t }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn floor_and_ceil_match_std() {
+        for x in [
+            -2.5,
+            -2.0,
+            -0.3,
+            -0.0,
+            0.0,
+            0.3,
+            1.0,
+            1.5,
+            1e9 + 0.5,
+            -1e9 - 0.5,
+        ] {
+            assert_eq!(super::floor(x), x.floor(), "{x}");
+            assert_eq!(super::ceil(x), x.ceil(), "{x}");
+        }
     }
 }

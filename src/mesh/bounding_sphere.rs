@@ -69,9 +69,9 @@ fn with_two(pts: &[Vec3], q1: Vec3, q2: Vec3, slack: f64) -> Sphere {
 
 fn with_three(pts: &[Vec3], q1: Vec3, q2: Vec3, q3: Vec3, slack: f64) -> Sphere {
     let mut s = circumcircle(q1, q2, q3);
-    for l in 0..pts.len() {
-        if !s.contains(pts[l], slack) {
-            s = circumsphere(q1, q2, q3, pts[l]);
+    for &p in pts {
+        if !s.contains(p, slack) {
+            s = circumsphere(q1, q2, q3, p);
         }
     }
     s
@@ -118,12 +118,16 @@ fn circumsphere(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Sphere {
             circumcircle(b, c, d),
         ]
         .into_iter()
-        .filter(|s| [a, b, c, d].iter().all(|&p| s.contains(p, s.radius * s.radius * 1e-9)))
+        .filter(|s| {
+            [a, b, c, d]
+                .iter()
+                .all(|&p| s.contains(p, s.radius * s.radius * 1e-9))
+        })
         .min_by(|x, y| x.radius.total_cmp(&y.radius))
         .unwrap_or_else(|| widest_pair(&[a, b, c, d]));
     }
-    let offset = (v.cross(w) * u.norm2() + w.cross(u) * v.norm2() + u.cross(v) * w.norm2())
-        * (0.5 / det);
+    let offset =
+        (v.cross(w) * u.norm2() + w.cross(u) * v.norm2() + u.cross(v) * w.norm2()) * (0.5 / det);
     Sphere {
         center: a + offset,
         radius: offset.norm(),
@@ -195,7 +199,11 @@ mod tests {
     fn cube_corners() {
         let mut pts = Vec::new();
         for i in 0..8 {
-            pts.push(Vec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64));
+            pts.push(Vec3::new(
+                (i & 1) as f64,
+                ((i >> 1) & 1) as f64,
+                ((i >> 2) & 1) as f64,
+            ));
         }
         let s = minimal_bounding_sphere(&pts).unwrap();
         assert!((s.center - Vec3::new(0.5, 0.5, 0.5)).norm() < 1e-9);

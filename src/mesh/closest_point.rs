@@ -15,7 +15,13 @@ pub struct ClosestPoint {
 
 /// The point of triangle `abc` nearest to `p`, by Voronoi regions of the
 /// corners and edges.
-pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3, triangle: usize) -> ClosestPoint {
+pub fn closest_point_on_triangle(
+    p: Vec3,
+    a: Vec3,
+    b: Vec3,
+    c: Vec3,
+    triangle: usize,
+) -> ClosestPoint {
     let point = closest(p, a, b, c);
     ClosestPoint {
         point,

@@ -11,11 +11,12 @@
 mod bounding_sphere;
 mod closest_point;
 pub mod io;
+pub mod shapes;
 mod weld;
 
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
-pub use weld::weld_vertices;
+pub use weld::{FxHasher, weld_vertices};
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3};
@@ -123,6 +124,31 @@ impl TriMesh {
             .expect("a TriMesh always has a triangle")
     }
 
+    /// The same mesh with every vertex moved by `f` (rotations and placements
+    /// in tests and scene assembly); validated again, since `f` may produce
+    /// anything.
+    pub fn map_positions(&self, f: impl Fn(Vec3) -> Vec3) -> Result<TriMesh> {
+        let positions = self
+            .positions
+            .iter()
+            .map(|&p| {
+                let q = f(Vec3::from_f32(p));
+                [q.x as f32, q.y as f32, q.z as f32]
+            })
+            .collect();
+        TriMesh::new(positions, self.triangles.clone())
+    }
+
+    /// The mesh with only the triangles for which `keep(index)` holds (cutting
+    /// holes in tests).
+    pub fn filter_triangles(&self, mut keep: impl FnMut(usize) -> bool) -> Result<TriMesh> {
+        let triangles = (0..self.triangles.len())
+            .filter(|&i| keep(i))
+            .map(|i| self.triangles[i])
+            .collect();
+        TriMesh::new(self.positions.clone(), triangles)
+    }
+
     /// Appends another mesh (used to merge the primitives of a scene).
     pub fn append(&mut self, other: &TriMesh) {
         let base = self.positions.len() as u32;
@@ -154,7 +180,12 @@ mod tests {
 
     #[test]
     fn drops_degenerate_triangles_and_keeps_the_rest() {
-        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [2.0, 0.0, 0.0]];
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [2.0, 0.0, 0.0],
+        ];
         let m = TriMesh::new(p, vec![[0, 1, 2], [0, 1, 1], [0, 1, 3]]).unwrap();
         assert_eq!(m.triangles(), &[[0, 1, 2]]);
         assert_eq!(m.degenerate_dropped(), 2);

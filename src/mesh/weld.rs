@@ -23,9 +23,10 @@ pub fn weld_vertices(positions: &[[f32; 3]]) -> (Vec<u32>, usize) {
     (ids, first.len())
 }
 
-/// The multiply-rotate hash of rustc (FxHash): fast on small integer keys.
+/// The multiply-rotate hash of rustc (FxHash): fast on small integer keys,
+/// which is all the pipeline hashes.
 #[derive(Default)]
-struct FxHasher(u64);
+pub struct FxHasher(u64);
 
 impl Hasher for FxHasher {
     fn write(&mut self, bytes: &[u8]) {
@@ -53,7 +54,12 @@ mod tests {
 
     #[test]
     fn equal_positions_share_an_id() {
-        let p = [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [0.0, 1.0, 2.0], [-0.0, 1.0, 2.0]];
+        let p = [
+            [0.0, 1.0, 2.0],
+            [3.0, 4.0, 5.0],
+            [0.0, 1.0, 2.0],
+            [-0.0, 1.0, 2.0],
+        ];
         let (ids, n) = weld_vertices(&p);
         assert_eq!(ids, vec![0, 1, 0, 0]);
         assert_eq!(n, 2);

@@ -1,9 +1,599 @@
-//! Placeholder: being written.
+//! glTF 2.0 (`.glb` and `.gltf`): every triangle primitive of the default
+//! scene, with the node hierarchy's transforms applied.
+//!
+//! The `gltf` crate parses and validates the JSON; accessors are read here with
+//! every offset checked against the actual buffer, so a truncated or lying file
+//! is an error, not a panic. Buffers are resolved only when a primitive needs
+//! them: embedded (GLB `BIN` chunk or `data:` URI) or external through the
+//! caller's [`ResourceResolver`]. Meshes shared by several nodes are decoded
+//! once.
+
+use std::collections::HashMap;
+
+use base64::Engine as _;
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
 
 use super::ResourceResolver;
 use crate::error::{Error, Format, Result};
 use crate::mesh::TriMesh;
 
-pub(super) fn parse(_bytes: &[u8], _resources: &dyn ResourceResolver) -> Result<TriMesh> {
-    Err(Error::malformed(Format::Gltf, "start", "not implemented yet"))
+/// Deeper node nesting than this is treated as a cycle (validation does not catch them).
+const MAX_DEPTH: usize = 256;
+
+/// A 4x4 matrix, column-major like glTF: `m[column][row]`.
+type Mat4 = [[f64; 4]; 4];
+
+const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+pub(super) fn parse(bytes: &[u8], resources: &dyn ResourceResolver) -> Result<TriMesh> {
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
+    validate(&gltf.document)?;
+    let mut loader = Loader {
+        buffers: vec![None; gltf.buffers().len()],
+        blob: gltf.blob.as_deref(),
+        resources,
+        meshes: HashMap::new(),
+        positions: Vec::new(),
+        triangles: Vec::new(),
+    };
+    let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        // No scene: every node that is nobody's child is a root.
+        None => {
+            let mut is_child = vec![false; gltf.nodes().len()];
+            for n in gltf.nodes() {
+                for c in n.children() {
+                    is_child[c.index()] = true;
+                }
+            }
+            gltf.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+    for node in roots {
+        loader.visit(&node, &IDENTITY, 0)?;
+    }
+    TriMesh::new(loader.positions, loader.triangles)
+}
+
+/// The crate's validation, minus one rule: POSITION accessors without
+/// `min`/`max` are accepted, because many exporters omit them and they are
+/// not needed here. Everything the readers rely on (indices in range, known
+/// component types) is still checked.
+fn validate(document: &gltf::Document) -> Result<()> {
+    use gltf::json::validation::{Error as Rule, Validate};
+    let root = document.as_json();
+    let mut problems = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, rule| {
+        let path = path();
+        let bounds = path.as_str().ends_with(".min") || path.as_str().ends_with(".max");
+        if !(bounds && matches!(rule, Rule::Missing)) {
+            problems.push(format!("{path}: {rule}"));
+        }
+    });
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::malformed(
+            Format::Gltf,
+            "document",
+            format!("invalid glTF: {}", problems.join("; ")),
+        ))
+    }
+}
+
+/// Local-space triangles of one mesh (all its triangle primitives).
+struct LocalMesh {
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+struct Loader<'a> {
+    buffers: Vec<Option<Vec<u8>>>,
+    blob: Option<&'a [u8]>,
+    resources: &'a dyn ResourceResolver,
+    meshes: HashMap<usize, LocalMesh>,
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Loader<'_> {
+    fn visit(&mut self, node: &gltf::Node, parent: &Mat4, depth: usize) -> Result<()> {
+        if depth > MAX_DEPTH {
+            return Err(Error::malformed(
+                Format::Gltf,
+                format!("node {}", node.index()),
+                "the node hierarchy is deeper than 256 levels or has a cycle",
+            ));
+        }
+        let local = node.transform().matrix().map(|c| c.map(f64::from));
+        let world = mul(parent, &local);
+        if let Some(mesh) = node.mesh() {
+            if !self.meshes.contains_key(&mesh.index()) {
+                let decoded = self.decode_mesh(&mesh)?;
+                self.meshes.insert(mesh.index(), decoded);
+            }
+            let m = &self.meshes[&mesh.index()];
+            let base = u32::try_from(self.positions.len())
+                .ok()
+                .filter(|b| b.checked_add(m.positions.len() as u32).is_some())
+                .ok_or_else(|| {
+                    Error::malformed(Format::Gltf, "scene", "more than 4 billion vertices")
+                })?;
+            self.positions
+                .extend(m.positions.iter().map(|&p| transform(&world, p)));
+            self.triangles
+                .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        for child in node.children() {
+            self.visit(&child, &world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn decode_mesh(&mut self, mesh: &gltf::Mesh) -> Result<LocalMesh> {
+        let mut out = LocalMesh {
+            positions: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for prim in mesh.primitives() {
+            let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                continue; // points and lines have no surface
+            }
+            let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    "primitive has no POSITION",
+                ));
+            };
+            let positions = self.read_positions(&pos_acc, &at)?;
+            let indices: Vec<u32> = match prim.indices() {
+                Some(acc) => self.read_indices(&acc, &at)?,
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    format!("index {bad} is past the {} positions", positions.len()),
+                ));
+            }
+            let base = out.positions.len() as u32;
+            out.positions.extend_from_slice(&positions);
+            let tris =
+                assemble(mode, &indices).map_err(|m| Error::malformed(Format::Gltf, &at, m))?;
+            out.triangles
+                .extend(tris.into_iter().map(|t| t.map(|i| i + base)));
+        }
+        Ok(out)
+    }
+
+    fn buffer(&mut self, buffer: &gltf::Buffer) -> Result<&[u8]> {
+        let i = buffer.index();
+        if self.buffers[i].is_none() {
+            let data = match buffer.source() {
+                gltf::buffer::Source::Bin => self
+                    .blob
+                    .ok_or_else(|| {
+                        Error::malformed(
+                            Format::Gltf,
+                            format!("buffer {i}"),
+                            "refers to the GLB binary chunk, which is missing",
+                        )
+                    })?
+                    .to_vec(),
+                gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
+                    Some(rest) => decode_data_uri(rest)
+                        .map_err(|m| Error::malformed(Format::Gltf, format!("buffer {i}"), m))?,
+                    None => self
+                        .resources
+                        .resolve(uri)
+                        .ok_or_else(|| Error::MissingResource {
+                            uri: uri.to_string(),
+                        })?,
+                },
+            };
+            if data.len() < buffer.length() {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    format!("buffer {i}"),
+                    format!(
+                        "declares {} bytes but only {} are present (truncated file?)",
+                        buffer.length(),
+                        data.len()
+                    ),
+                ));
+            }
+            self.buffers[i] = Some(data);
+        }
+        Ok(self.buffers[i].as_deref().unwrap_or_default())
+    }
+
+    /// The bytes of a buffer view, checked against the buffer.
+    fn view_bytes(&mut self, view: &gltf::buffer::View, at: &str) -> Result<&[u8]> {
+        let (offset, length) = (view.offset(), view.length());
+        let data = self.buffer(&view.buffer())?;
+        offset
+            .checked_add(length)
+            .and_then(|end| data.get(offset..end))
+            .ok_or_else(|| {
+                Error::malformed(
+                    Format::Gltf,
+                    at,
+                    format!(
+                        "buffer view {} (bytes {offset}..+{length}) lies outside its buffer of {} bytes",
+                        view.index(),
+                        data.len()
+                    ),
+                )
+            })
+    }
+
+    /// Reads every element of an accessor as raw component bytes, honouring
+    /// byte strides and sparse substitution. Returns `count` elements of
+    /// `elem` bytes each, packed.
+    fn read_elements(&mut self, acc: &gltf::Accessor, at: &str) -> Result<Vec<u8>> {
+        let elem = acc.size();
+        let count = acc.count();
+        let total = count
+            .checked_mul(elem)
+            .filter(|&t| t <= isize::MAX as usize / 2)
+            .ok_or_else(|| Error::malformed(Format::Gltf, at, "accessor is impossibly large"))?;
+        let mut out = match acc.view() {
+            None => {
+                // No view: zeros, unless sparse values fill some in. Do not
+                // allocate more than a sparse accessor could reasonably use.
+                if acc.sparse().is_none() {
+                    return Err(Error::malformed(
+                        Format::Gltf,
+                        at,
+                        format!(
+                            "accessor {} has neither a buffer view nor sparse values",
+                            acc.index()
+                        ),
+                    ));
+                }
+                vec![0u8; total]
+            }
+            Some(view) => {
+                let stride = view.stride().unwrap_or(elem);
+                let offset = acc.offset();
+                let bytes = self.view_bytes(&view, at)?;
+                let needed = if count == 0 {
+                    Some(offset)
+                } else {
+                    stride
+                        .checked_mul(count - 1)
+                        .and_then(|s| s.checked_add(offset))
+                        .and_then(|s| s.checked_add(elem))
+                };
+                if stride < elem || needed.is_none_or(|n| n > bytes.len()) {
+                    return Err(Error::malformed(
+                        Format::Gltf,
+                        at,
+                        format!(
+                            "accessor {} ({count} elements of {elem} bytes, stride {stride}, offset {offset}) does not fit its buffer view of {} bytes",
+                            acc.index(),
+                            bytes.len()
+                        ),
+                    ));
+                }
+                let mut out = Vec::with_capacity(total);
+                for k in 0..count {
+                    let s = offset + k * stride;
+                    out.extend_from_slice(&bytes[s..s + elem]);
+                }
+                out
+            }
+        };
+        if let Some(sparse) = acc.sparse() {
+            let n = sparse.count();
+            let idx_view = sparse.indices().view();
+            let idx_size = match sparse.indices().index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let idx_off = sparse.indices().offset();
+            let idx_bytes = self.view_bytes(&idx_view, at)?.to_vec();
+            let val_view = sparse.values().view();
+            let val_off = sparse.values().offset();
+            let val_bytes = self.view_bytes(&val_view, at)?.to_vec();
+            let idx_end = n.checked_mul(idx_size).and_then(|b| b.checked_add(idx_off));
+            let val_end = n.checked_mul(elem).and_then(|b| b.checked_add(val_off));
+            if idx_end.is_none_or(|e| e > idx_bytes.len())
+                || val_end.is_none_or(|e| e > val_bytes.len())
+            {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    "sparse accessor data exceeds its buffer views",
+                ));
+            }
+            for k in 0..n {
+                let b = &idx_bytes[idx_off + k * idx_size..idx_off + (k + 1) * idx_size];
+                let target = match idx_size {
+                    1 => b[0] as usize,
+                    2 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+                };
+                if target >= count {
+                    return Err(Error::malformed(
+                        Format::Gltf,
+                        at,
+                        format!("sparse index {target} is past the accessor's {count} elements"),
+                    ));
+                }
+                out[target * elem..(target + 1) * elem]
+                    .copy_from_slice(&val_bytes[val_off + k * elem..val_off + (k + 1) * elem]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn read_positions(&mut self, acc: &gltf::Accessor, at: &str) -> Result<Vec<[f32; 3]>> {
+        if acc.dimensions() != Dimensions::Vec3 {
+            return Err(Error::malformed(
+                Format::Gltf,
+                at,
+                "POSITION is not a VEC3 accessor",
+            ));
+        }
+        let data_type = acc.data_type();
+        let normalized = acc.normalized();
+        let raw = self.read_elements(acc, at)?;
+        let c = data_type.size();
+        Ok(raw
+            .chunks_exact(3 * c)
+            .map(|e| {
+                [0, 1, 2].map(|k| component_to_f32(&e[k * c..(k + 1) * c], data_type, normalized))
+            })
+            .collect())
+    }
+
+    fn read_indices(&mut self, acc: &gltf::Accessor, at: &str) -> Result<Vec<u32>> {
+        if acc.dimensions() != Dimensions::Scalar {
+            return Err(Error::malformed(
+                Format::Gltf,
+                at,
+                "indices are not a SCALAR accessor",
+            ));
+        }
+        let data_type = acc.data_type();
+        if !matches!(data_type, DataType::U8 | DataType::U16 | DataType::U32) {
+            return Err(Error::malformed(
+                Format::Gltf,
+                at,
+                "indices are not unsigned integers",
+            ));
+        }
+        let raw = self.read_elements(acc, at)?;
+        Ok(raw
+            .chunks_exact(data_type.size())
+            .map(|b| match b.len() {
+                1 => b[0] as u32,
+                2 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            })
+            .collect())
+    }
+}
+
+/// One little-endian component as f32 (integer positions come from
+/// KHR_mesh_quantization; normalized ones map to [-1, 1] or [0, 1]).
+fn component_to_f32(b: &[u8], t: DataType, normalized: bool) -> f32 {
+    match t {
+        DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        DataType::I8 => {
+            let v = b[0] as i8 as f32;
+            if normalized { (v / 127.0).max(-1.0) } else { v }
+        }
+        DataType::U8 => {
+            let v = b[0] as f32;
+            if normalized { v / 255.0 } else { v }
+        }
+        DataType::I16 => {
+            let v = i16::from_le_bytes([b[0], b[1]]) as f32;
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U16 => {
+            let v = u16::from_le_bytes([b[0], b[1]]) as f32;
+            if normalized { v / 65535.0 } else { v }
+        }
+        DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+    }
+}
+
+/// Triangles from a primitive's index list.
+fn assemble(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, String> {
+    Ok(match mode {
+        Mode::Triangles => {
+            if idx.len() % 3 != 0 {
+                return Err(format!(
+                    "{} triangle indices is not a multiple of 3",
+                    idx.len()
+                ));
+            }
+            idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i + 1], idx[i], idx[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[0], idx[i], idx[i + 1]])
+            .collect(),
+        _ => Vec::new(),
+    })
+}
+
+/// Decodes the part of a `data:` URI after the scheme; only base64 payloads
+/// carry binary buffers.
+fn decode_data_uri(rest: &str) -> std::result::Result<Vec<u8>, String> {
+    let Some((meta, payload)) = rest.split_once(',') else {
+        return Err("data URI has no ',' before its payload".into());
+    };
+    if !meta.ends_with(";base64") {
+        return Err("data URI is not base64-encoded".into());
+    }
+    base64::engine::general_purpose::STANDARD
+        .decode(payload.trim())
+        .map_err(|e| format!("data URI is not valid base64: {e}"))
+}
+
+fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut m = [[0.0; 4]; 4];
+    for (c, col) in m.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[k][r] * b[c][k]).sum();
+        }
+    }
+    m
+}
+
+fn transform(m: &Mat4, p: [f32; 3]) -> [f32; 3] {
+    let [x, y, z] = p.map(f64::from);
+    [0, 1, 2].map(|r| (m[0][r] * x + m[1][r] * y + m[2][r] * z + m[3][r]) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::io::{NoResources, load};
+
+    /// A minimal .gltf with one triangle in an embedded buffer, placed by a
+    /// translated parent node and a scaled child.
+    fn tiny_gltf(uri: &str) -> String {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"translation":[10,0,0],"children":[1]}},{{"scale":[2,2,2],"mesh":0}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+            "buffers":[{{"byteLength":42,"uri":"{uri}"}}],
+            "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}},
+                         {{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}]}}"#
+        )
+    }
+
+    fn tiny_buffer() -> Vec<u8> {
+        let mut b = Vec::new();
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u16, 1, 2] {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+        b
+    }
+
+    fn data_uri() -> String {
+        format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(tiny_buffer())
+        )
+    }
+
+    #[test]
+    fn node_transforms_compose() {
+        let m = load(tiny_gltf(&data_uri()).as_bytes(), Some(Format::Gltf)).unwrap();
+        assert_eq!(
+            m.positions(),
+            &[[10.0, 0.0, 0.0], [12.0, 0.0, 0.0], [10.0, 2.0, 0.0]]
+        );
+        assert_eq!(m.triangles(), &[[0, 1, 2]]);
+    }
+
+    #[test]
+    fn external_buffers_come_from_the_resolver() {
+        let doc = tiny_gltf("tri.bin");
+        let e = parse(doc.as_bytes(), &NoResources).unwrap_err();
+        assert!(
+            matches!(&e, Error::MissingResource { uri } if uri == "tri.bin"),
+            "{e}"
+        );
+        let resolver = |uri: &str| (uri == "tri.bin").then(tiny_buffer);
+        let m = parse(doc.as_bytes(), &resolver).unwrap();
+        assert_eq!(m.triangles().len(), 1);
+        // A short external buffer is reported, not read past.
+        let short = |_: &str| Some(tiny_buffer()[..20].to_vec());
+        assert!(matches!(
+            parse(doc.as_bytes(), &short),
+            Err(Error::Malformed { .. })
+        ));
+    }
+
+    #[test]
+    fn strips_and_fans() {
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 2, 3]).unwrap(),
+            vec![[0, 1, 2], [2, 1, 3]]
+        );
+        assert_eq!(
+            assemble(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap(),
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
+        assert!(assemble(Mode::Triangles, &[0, 1]).is_err());
+    }
+
+    fn scene_bytes(name: &str) -> Option<Vec<u8>> {
+        let p = format!("{}/../shared/scenes/{name}", env!("CARGO_MANIFEST_DIR"));
+        std::fs::read(p).ok()
+    }
+
+    #[test]
+    fn every_truncation_of_a_glb_is_an_error() {
+        let Some(glb) = scene_bytes("fused-homer/template.glb") else {
+            return;
+        };
+        // Every prefix up to the JSON's end and a spread of later ones.
+        let json_len = u32::from_le_bytes([glb[12], glb[13], glb[14], glb[15]]) as usize;
+        let cuts = (0..json_len + 40).chain((json_len..glb.len()).step_by(997));
+        for cut in cuts {
+            let r = load(&glb[..cut], None);
+            assert!(r.is_err(), "prefix of {cut} bytes parsed");
+        }
+        assert!(load(&glb, None).is_ok());
+    }
+
+    #[test]
+    fn garbage_inside_a_glb_is_an_error() {
+        let Some(mut glb) = scene_bytes("fused-homer/template.glb") else {
+            return;
+        };
+        // Break the JSON chunk.
+        for b in &mut glb[20..60] {
+            *b = b'#';
+        }
+        assert!(matches!(load(&glb, None), Err(Error::Malformed { .. })));
+    }
+
+    #[test]
+    fn a_shared_scene_loads_with_its_instances() {
+        let Some(glb) = scene_bytes("zoo-bunny/scene.glb") else {
+            return;
+        };
+        let m = load(&glb, None).unwrap();
+        assert_eq!(m.triangles().len() + m.degenerate_dropped(), 334_962);
+    }
 }

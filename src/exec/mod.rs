@@ -1,0 +1,91 @@
+//! Execution backends: the same per-item function, run serially or with rayon.
+//!
+//! Every parallel step in the pipeline goes through [`Backend`], and every one
+//! of them produces results in input order or combines them with an
+//! order-independent operation (bitwise OR), so the two backends give
+//! identical results; a test at the top level checks it on whole searches.
+
+use std::ops::Range;
+
+/// How data-parallel work runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// One thread, in order.
+    Serial,
+    /// rayon's current thread pool (serial when the `parallel` feature is off).
+    #[default]
+    Parallel,
+}
+
+impl Backend {
+    /// Whether work really runs on several threads.
+    pub fn is_parallel(self) -> bool {
+        cfg!(feature = "parallel") && self == Backend::Parallel
+    }
+
+    /// Calls `f` on consecutive sub-ranges of `0..len` of about `grain` items.
+    pub fn for_each_range<F>(self, len: usize, grain: usize, f: F)
+    where
+        F: Fn(Range<usize>) + Sync + Send,
+    {
+        let grain = grain.max(1);
+        let chunks = len.div_ceil(grain);
+        let range = |c: usize| c * grain..((c + 1) * grain).min(len);
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            (0..chunks).into_par_iter().for_each(|c| f(range(c)));
+            return;
+        }
+        (0..chunks).for_each(|c| f(range(c)));
+    }
+
+    /// `f(i)` for every `i` in `0..len`, keeping the `Some` results in order.
+    pub fn filter_map<R, F>(self, len: usize, f: F) -> Vec<R>
+    where
+        R: Send,
+        F: Fn(usize) -> Option<R> + Sync + Send,
+    {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            return (0..len)
+                .into_par_iter()
+                .with_min_len(64)
+                .filter_map(f)
+                .collect();
+        }
+        (0..len).filter_map(f).collect()
+    }
+
+    /// `f(i)` for every `i` in `0..len`, in order.
+    pub fn map<R, F>(self, len: usize, f: F) -> Vec<R>
+    where
+        R: Send,
+        F: Fn(usize) -> R + Sync + Send,
+    {
+        self.filter_map(len, |i| Some(f(i)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    #[test]
+    fn backends_agree() {
+        let f = |i: usize| (i % 3 == 0).then_some(i * i);
+        assert_eq!(
+            Backend::Serial.filter_map(10_000, f),
+            Backend::Parallel.filter_map(10_000, f)
+        );
+        for b in [Backend::Serial, Backend::Parallel] {
+            let sum = AtomicUsize::new(0);
+            b.for_each_range(1000, 7, |r| {
+                sum.fetch_add(r.sum::<usize>(), Ordering::Relaxed);
+            });
+            assert_eq!(sum.into_inner(), 999 * 1000 / 2);
+        }
+    }
+}

@@ -1,0 +1,306 @@
+//! The bit-packed voxel grid and its placement in world space.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{Error, Result};
+use crate::math::{Aabb, Vec3};
+
+/// Empty voxels kept around the content on every side, so that every skin
+/// voxel has an in-grid empty neighbour and every fill column starts and ends
+/// outside.
+pub const PADDING: usize = 1;
+
+/// Where a grid sits in world space: cubic voxels of `voxel_size`, voxel
+/// `(0, 0, 0)` with its lowest corner at `origin`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridSpec {
+    /// World position of the lowest corner of voxel (0, 0, 0).
+    pub origin: Vec3,
+    /// Edge length of a voxel in world units.
+    pub voxel_size: f64,
+    /// Voxels along x, y and z.
+    pub dims: [usize; 3],
+}
+
+impl GridSpec {
+    /// The grid for a scene: `resolution` voxels along the longest side of
+    /// `bounds`, plus [`PADDING`] on every side.
+    pub fn for_scene(bounds: Aabb, resolution: u32) -> Result<GridSpec> {
+        if !(8..=16384).contains(&resolution) {
+            return Err(Error::invalid_option(
+                "resolution",
+                format!("{resolution} is outside 8..=16384"),
+            ));
+        }
+        let longest = bounds.extent().max_element();
+        if longest <= 0.0 || !longest.is_finite() {
+            return Err(Error::invalid_option(
+                "resolution",
+                "the scene has no extent (all its vertices coincide)",
+            ));
+        }
+        Ok(GridSpec::around(bounds, longest / resolution as f64))
+    }
+
+    /// The grid with voxels of `voxel_size` that holds `bounds` plus padding
+    /// (templates use the scene's voxel size so that radii agree).
+    pub fn around(bounds: Aabb, voxel_size: f64) -> GridSpec {
+        let pad = PADDING as f64 * voxel_size;
+        let ext = bounds.extent();
+        // floor + 1: a vertex exactly on the far face lands in a voxel of its
+        // own, and the padding still follows it.
+        let dims =
+            [ext.x, ext.y, ext.z].map(|e| (e / voxel_size).floor() as usize + 1 + 2 * PADDING);
+        GridSpec {
+            origin: bounds.min - Vec3::new(pad, pad, pad),
+            voxel_size,
+            dims,
+        }
+    }
+
+    /// Number of voxels.
+    pub fn voxel_count(&self) -> u64 {
+        self.dims.iter().map(|&d| d as u64).product()
+    }
+
+    /// Bytes of one bit grid of this size (rows padded to 64 bits).
+    pub fn grid_bytes(&self) -> u64 {
+        self.dims[0].div_ceil(64) as u64 * 8 * self.dims[1] as u64 * self.dims[2] as u64
+    }
+
+    /// Fails when `copies` bit grids of this size would pass `cap` bytes.
+    pub fn check_memory(&self, copies: u64, cap: u64, resolution: u32) -> Result<()> {
+        let bytes = self.grid_bytes().saturating_mul(copies);
+        if bytes > cap || self.dims.iter().any(|&d| d > u16::MAX as usize) {
+            return Err(Error::GridTooLarge {
+                dims: self.dims.map(|d| d as u64),
+                bytes,
+                cap,
+                resolution,
+            });
+        }
+        Ok(())
+    }
+
+    /// A world point in grid units (voxel `i` spans `[i, i + 1)`).
+    pub fn to_grid(&self, p: Vec3) -> Vec3 {
+        (p - self.origin) * (1.0 / self.voxel_size)
+    }
+
+    /// World position of the centre of voxel `v`.
+    pub fn center(&self, v: [u16; 3]) -> Vec3 {
+        self.origin
+            + Vec3::new(v[0] as f64 + 0.5, v[1] as f64 + 0.5, v[2] as f64 + 0.5) * self.voxel_size
+    }
+}
+
+/// A bit per voxel, rows along x packed into 64-bit words.
+///
+/// Word `w` of row `(y, z)` is at `(z * ny + y) * words_per_row + w`; bits past
+/// `nx` in a row's last word stay zero. A trailing zero word lets readers
+/// fetch two consecutive words without a bounds check at the very end.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    spec: GridSpec,
+    words_per_row: usize,
+    words: Vec<u64>,
+}
+
+impl Grid {
+    /// An empty grid.
+    pub fn new(spec: GridSpec) -> Grid {
+        let words_per_row = spec.dims[0].div_ceil(64);
+        Grid {
+            spec,
+            words_per_row,
+            words: vec![0; words_per_row * spec.dims[1] * spec.dims[2] + 1],
+        }
+    }
+
+    /// Wraps words laid out as [`Grid`] describes (used by parallel builders).
+    pub(crate) fn from_words(spec: GridSpec, words: Vec<u64>) -> Grid {
+        let words_per_row = spec.dims[0].div_ceil(64);
+        debug_assert_eq!(words.len(), words_per_row * spec.dims[1] * spec.dims[2] + 1);
+        Grid {
+            spec,
+            words_per_row,
+            words,
+        }
+    }
+
+    /// Placement in world space.
+    pub fn spec(&self) -> &GridSpec {
+        &self.spec
+    }
+
+    /// Voxels along x, y, z.
+    pub fn dims(&self) -> [usize; 3] {
+        self.spec.dims
+    }
+
+    /// 64-bit words per row.
+    pub fn words_per_row(&self) -> usize {
+        self.words_per_row
+    }
+
+    /// All words (rows in z-major, then y order), plus one trailing zero word.
+    pub fn words(&self) -> &[u64] {
+        &self.words
+    }
+
+    /// Mutable words; callers must keep the bits past `nx` zero.
+    pub(crate) fn words_mut(&mut self) -> &mut [u64] {
+        &mut self.words
+    }
+
+    /// Index of the first word of row `(y, z)`.
+    pub fn row_start(&self, y: usize, z: usize) -> usize {
+        (z * self.spec.dims[1] + y) * self.words_per_row
+    }
+
+    /// The words of row `(y, z)`.
+    pub fn row(&self, y: usize, z: usize) -> &[u64] {
+        let s = self.row_start(y, z);
+        &self.words[s..s + self.words_per_row]
+    }
+
+    /// Whether voxel `(x, y, z)` is set; out-of-grid voxels read as empty.
+    pub fn get(&self, x: i64, y: i64, z: i64) -> bool {
+        let [nx, ny, nz] = self.spec.dims.map(|d| d as i64);
+        if x < 0 || y < 0 || z < 0 || x >= nx || y >= ny || z >= nz {
+            return false;
+        }
+        let w = self.words[self.row_start(y as usize, z as usize) + (x as usize >> 6)];
+        (w >> (x & 63)) & 1 == 1
+    }
+
+    /// Sets voxel `(x, y, z)`, which must be inside the grid.
+    pub fn set(&mut self, x: usize, y: usize, z: usize) {
+        let i = self.row_start(y, z) + (x >> 6);
+        self.words[i] |= 1 << (x & 63);
+    }
+
+    /// Number of set voxels.
+    pub fn count_ones(&self) -> u64 {
+        self.words.iter().map(|w| w.count_ones() as u64).sum()
+    }
+
+    /// Every set voxel, in z, y, x order.
+    pub fn iter_ones(&self) -> impl Iterator<Item = [u16; 3]> + '_ {
+        let [_, ny, nz] = self.spec.dims;
+        (0..nz).flat_map(move |z| {
+            (0..ny).flat_map(move |y| {
+                self.row(y, z).iter().enumerate().flat_map(move |(wi, &w)| {
+                    BitIter(w).map(move |b| [(wi * 64 + b) as u16, y as u16, z as u16])
+                })
+            })
+        })
+    }
+}
+
+/// A grid that several threads set bits in at once; OR is order-independent,
+/// so the result does not depend on scheduling.
+pub(crate) struct AtomicGrid {
+    spec: GridSpec,
+    words_per_row: usize,
+    words: Vec<AtomicU64>,
+}
+
+impl AtomicGrid {
+    pub(crate) fn new(spec: GridSpec) -> AtomicGrid {
+        let words_per_row = spec.dims[0].div_ceil(64);
+        let n = words_per_row * spec.dims[1] * spec.dims[2] + 1;
+        AtomicGrid {
+            spec,
+            words_per_row,
+            words: (0..n).map(|_| AtomicU64::new(0)).collect(),
+        }
+    }
+
+    /// Sets voxel `(x, y, z)`, which must be inside the grid.
+    pub(crate) fn set(&self, x: usize, y: usize, z: usize) {
+        let i = (z * self.spec.dims[1] + y) * self.words_per_row + (x >> 6);
+        let bit = 1u64 << (x & 63);
+        // Neighbouring triangles hit the same voxels: a plain load avoids most
+        // read-modify-write traffic.
+        if self.words[i].load(Ordering::Relaxed) & bit == 0 {
+            self.words[i].fetch_or(bit, Ordering::Relaxed);
+        }
+    }
+
+    /// ORs `bits` into word `word` of row `(y, z)`.
+    pub(crate) fn or_word(&self, word: usize, y: usize, z: usize, bits: u64) {
+        if bits != 0 {
+            let i = (z * self.spec.dims[1] + y) * self.words_per_row + word;
+            self.words[i].fetch_or(bits, Ordering::Relaxed);
+        }
+    }
+
+    pub(crate) fn into_grid(self) -> Grid {
+        Grid::from_words(
+            self.spec,
+            self.words.into_iter().map(AtomicU64::into_inner).collect(),
+        )
+    }
+}
+
+/// Positions of the set bits of a word, lowest first.
+struct BitIter(u64);
+
+impl Iterator for BitIter {
+    type Item = usize;
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let b = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(dims: [usize; 3]) -> GridSpec {
+        GridSpec {
+            origin: Vec3::ZERO,
+            voxel_size: 1.0,
+            dims,
+        }
+    }
+
+    #[test]
+    fn set_get_count_and_iterate() {
+        let mut g = Grid::new(spec([70, 3, 2]));
+        for v in [[0, 0, 0], [63, 1, 0], [64, 1, 0], [69, 2, 1]] {
+            g.set(v[0], v[1], v[2]);
+        }
+        assert!(g.get(63, 1, 0) && g.get(64, 1, 0) && g.get(69, 2, 1));
+        assert!(!g.get(62, 1, 0) && !g.get(-1, 0, 0) && !g.get(70, 2, 1));
+        assert_eq!(g.count_ones(), 4);
+        let ones: Vec<_> = g.iter_ones().collect();
+        assert_eq!(ones, vec![[0, 0, 0], [63, 1, 0], [64, 1, 0], [69, 2, 1]]);
+    }
+
+    #[test]
+    fn scene_spec_puts_resolution_voxels_on_the_longest_side() {
+        let b = Aabb {
+            min: Vec3::new(-1.0, 0.0, 0.0),
+            max: Vec3::new(3.0, 1.0, 2.0),
+        };
+        let s = GridSpec::for_scene(b, 100).unwrap();
+        assert!((s.voxel_size - 0.04).abs() < 1e-12);
+        assert_eq!(s.dims, [103, 28, 53]);
+        assert!(GridSpec::for_scene(b, 4).is_err());
+    }
+
+    #[test]
+    fn memory_cap_is_enforced() {
+        let s = spec([4096, 4096, 4096]);
+        let e = s.check_memory(1, 1 << 30, 4096).unwrap_err();
+        assert!(matches!(e, Error::GridTooLarge { .. }), "{e}");
+        assert!(spec([64, 64, 64]).check_memory(4, 1 << 30, 64).is_ok());
+    }
+}

@@ -1,0 +1,32 @@
+//! Voxelization: the scene as a solid bit grid, and its skin.
+//!
+//! The solid is the union of the surface voxels (every voxel a triangle
+//! touches, so thin parts and open sheets survive) and the filled interior of
+//! every shell (voxels whose centre is inside). The skin, the solid voxels
+//! with an empty face neighbour, is the set of candidate points.
+
+mod fill;
+mod grid;
+mod skin;
+mod surface;
+
+pub use fill::fill_solid;
+pub use grid::{Grid, GridSpec, PADDING};
+pub use skin::skin;
+pub use surface::voxelize_surface;
+
+use crate::exec::Backend;
+use crate::mesh::TriMesh;
+
+/// The solid voxels of a mesh: its surface voxels and its filled interior.
+pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
+    let mut solid = voxelize_surface(mesh, spec, backend);
+    let interior = fill_solid(mesh, spec, backend);
+    for (s, i) in solid.words_mut().iter_mut().zip(interior.words()) {
+        *s |= i;
+    }
+    solid
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,207 @@
+//! Voxelization against analytic and independent oracles.
+
+use super::*;
+use crate::math::{Aabb, Vec3};
+use crate::mesh::TriMesh;
+use crate::mesh::shapes::{cuboid, torus, uv_sphere};
+use std::f64::consts::PI;
+
+fn spec_for(mesh: &TriMesh, resolution: u32) -> GridSpec {
+    GridSpec::for_scene(mesh.bounds(), resolution).unwrap()
+}
+
+fn volume(g: &Grid) -> f64 {
+    g.count_ones() as f64 * g.spec().voxel_size.powi(3)
+}
+
+fn rel_err(got: f64, want: f64) -> f64 {
+    (got - want).abs() / want
+}
+
+#[test]
+fn sphere_volume_is_analytic_within_one_percent() {
+    let r = 1.0;
+    let m = uv_sphere(Vec3::ZERO, r, 128, 256);
+    let want = 4.0 / 3.0 * PI * r * r * r;
+    for res in [128, 512] {
+        let spec = spec_for(&m, res);
+        let interior = fill_solid(&m, &spec, Backend::Parallel);
+        let solid = voxelize(&m, &spec, Backend::Parallel);
+        // Centre sampling is unbiased; the surface voxels add at most a layer.
+        assert!(
+            rel_err(volume(&interior), want) < 0.01,
+            "res {res}: interior {}",
+            volume(&interior)
+        );
+        if res == 512 {
+            assert!(
+                rel_err(volume(&solid), want) < 0.01,
+                "res {res}: solid {}",
+                volume(&solid)
+            );
+        }
+    }
+}
+
+#[test]
+fn cube_volume_is_analytic_within_one_percent() {
+    // Rotated, so that faces do not line up with voxel boundaries.
+    let (s, c) = (0.3f64.sin(), 0.3f64.cos());
+    let m = cuboid(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.5, 0.5, 0.5))
+        .map_positions(|p| Vec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z))
+        .unwrap();
+    let want = 1.0;
+    let spec = spec_for(&m, 512);
+    let solid = volume(&voxelize(&m, &spec, Backend::Parallel));
+    let interior = volume(&fill_solid(&m, &spec, Backend::Parallel));
+    assert!(rel_err(solid, want) < 0.01, "solid {solid}");
+    assert!(rel_err(interior, want) < 0.005, "interior {interior}");
+}
+
+#[test]
+fn a_sphere_with_a_hole_fills_like_the_closed_one() {
+    let m = uv_sphere(Vec3::ZERO, 1.0, 64, 128);
+    // Cut away a cap around the south pole: a big hole (about 15 degrees).
+    let open = m
+        .filter_triangles(|t| m.corners(t).iter().all(|p| p.z > -0.96))
+        .unwrap();
+    assert!(open.triangles().len() < m.triangles().len());
+    let spec = spec_for(&m, 128);
+    let closed = fill_solid(&m, &spec, Backend::Serial);
+    let holed = fill_solid(&open, &spec, Backend::Serial);
+    let differ = closed
+        .words()
+        .iter()
+        .zip(holed.words())
+        .map(|(a, b)| (a ^ b).count_ones() as u64)
+        .sum::<u64>();
+    assert!(
+        (differ as f64) < 0.002 * closed.count_ones() as f64,
+        "{differ} of {} voxels differ",
+        closed.count_ones()
+    );
+}
+
+#[test]
+fn overlapping_shells_fill_their_union() {
+    // Two unit spheres whose centres are 1 apart, in one mesh: parity over the
+    // whole mesh would empty the lens where they overlap.
+    let mut m = uv_sphere(Vec3::ZERO, 1.0, 96, 192);
+    m.append(&uv_sphere(Vec3::new(1.0, 0.0, 0.0), 1.0, 96, 192));
+    let d: f64 = 1.0;
+    let lens = PI * (4.0 + d) * (2.0 - d).powi(2) / 12.0;
+    let want = 2.0 * 4.0 / 3.0 * PI - lens;
+    let spec = spec_for(&m, 256);
+    let got = volume(&fill_solid(&m, &spec, Backend::Parallel));
+    assert!(rel_err(got, want) < 0.01, "{got} vs {want}");
+}
+
+#[test]
+fn orientation_does_not_matter() {
+    let m = torus(Vec3::ZERO, 1.0, 0.35, 64, 32);
+    let flipped = TriMesh::new(
+        m.positions().to_vec(),
+        m.triangles()
+            .iter()
+            .enumerate()
+            .map(|(i, t)| if i % 3 == 0 { [t[0], t[2], t[1]] } else { *t })
+            .collect(),
+    )
+    .unwrap();
+    let spec = spec_for(&m, 128);
+    assert_eq!(
+        fill_solid(&m, &spec, Backend::Serial),
+        fill_solid(&flipped, &spec, Backend::Serial)
+    );
+    // The hole of the torus stays empty.
+    let centre = spec.to_grid(Vec3::ZERO);
+    let g = fill_solid(&m, &spec, Backend::Serial);
+    assert!(!g.get(centre.x as i64, centre.y as i64, centre.z as i64));
+    let want = 2.0 * PI * PI * 1.0 * 0.35 * 0.35;
+    assert!(rel_err(volume(&g), want) < 0.02);
+}
+
+#[test]
+fn serial_and_parallel_voxelizations_are_identical() {
+    let mut m = torus(Vec3::ZERO, 1.0, 0.35, 48, 24);
+    m.append(&uv_sphere(Vec3::new(0.5, 0.2, 0.1), 0.6, 32, 64));
+    let spec = spec_for(&m, 100);
+    assert_eq!(
+        voxelize(&m, &spec, Backend::Serial),
+        voxelize(&m, &spec, Backend::Parallel)
+    );
+}
+
+#[test]
+fn skin_of_a_box_is_its_outer_layer() {
+    // A box covering voxels 1..=10, 1..=6, 1..=4 exactly (centres inside).
+    let spec = GridSpec {
+        origin: Vec3::ZERO,
+        voxel_size: 1.0,
+        dims: [12, 8, 6],
+    };
+    let m = cuboid(Vec3::new(1.2, 1.2, 1.2), Vec3::new(10.8, 6.8, 4.8));
+    let solid = fill_solid(&m, &spec, Backend::Serial);
+    assert_eq!(solid.count_ones(), 10 * 6 * 4);
+    let s = skin(&solid);
+    assert_eq!(s.count_ones(), 10 * 6 * 4 - 8 * 4 * 2);
+    assert!(s.get(1, 1, 1) && !s.get(5, 3, 2));
+}
+
+/// Generalized winding number (Jacobson et al. 2013): the solid angle the
+/// surface subtends at `p`, over 4 pi. About 1 inside, 0 outside, and a
+/// graceful in-between near holes: an oracle independent of any ray casting.
+fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
+    let mut total = 0.0;
+    for t in 0..mesh.triangles().len() {
+        let [a, b, c] = mesh.corners(t).map(|q| q - p);
+        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+        let num = a.dot(b.cross(c));
+        let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+        total += 2.0 * num.atan2(den);
+    }
+    total / (4.0 * PI)
+}
+
+#[test]
+fn the_open_bunny_fills_like_its_winding_number() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/models/stanford-bunny.obj"
+    );
+    let Ok(bytes) = std::fs::read(path) else {
+        return;
+    };
+    let Ok(mesh) = crate::mesh::io::load(&bytes, Some(crate::Format::Obj)) else {
+        return; // the OBJ loader is tested on its own
+    };
+    let spec = spec_for(&mesh, 96);
+    let solid = fill_solid(&mesh, &spec, Backend::Parallel);
+    let mut state: u64 = 7;
+    let (mut agree, mut total) = (0, 0);
+    let b: Aabb = mesh.bounds();
+    while total < 1500 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let v = [0, 1, 2].map(|a| ((state >> (20 * a)) % spec.dims[a] as u64) as i64);
+        let c = spec.center([v[0] as u16, v[1] as u16, v[2] as u16]);
+        if b.distance_to(c) > 0.0 {
+            continue;
+        }
+        // Skip voxels within two voxels of the surface, where any two
+        // discretizations may disagree.
+        if mesh.closest_point(c).distance2.sqrt() < 2.0 * spec.voxel_size {
+            continue;
+        }
+        total += 1;
+        let inside = winding_number(&mesh, c) > 0.5;
+        if inside == solid.get(v[0], v[1], v[2]) {
+            agree += 1;
+        }
+    }
+    assert!(
+        agree as f64 >= 0.99 * total as f64,
+        "{agree} of {total} agree"
+    );
+}
