@@ -58,6 +58,26 @@ impl Backend {
         (0..len).filter_map(f).collect()
     }
 
+    /// `f(item)` for every item, consuming them, keeping the `Some` results
+    /// in order.
+    pub fn filter_map_owned<T, R, F>(self, items: Vec<T>, f: F) -> Vec<R>
+    where
+        T: Send,
+        R: Send,
+        F: Fn(T) -> Option<R> + Sync + Send,
+    {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            return items
+                .into_par_iter()
+                .with_min_len(16)
+                .filter_map(f)
+                .collect();
+        }
+        items.into_iter().filter_map(f).collect()
+    }
+
     /// `f(i)` for every `i` in `0..len`, in order.
     pub fn map<R, F>(self, len: usize, f: F) -> Vec<R>
     where

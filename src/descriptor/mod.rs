@@ -1,0 +1,40 @@
+//! Onion descriptors: layered shape descriptors computed at a point over
+//! growing radii r_1 < ... < r_k (paper, sec. 3.2).
+//!
+//! The cascade only knows the [`OnionDescriptor`] trait: start a point, add
+//! one layer at a time, read the running distance to the template, which
+//! never decreases (the descriptors are monotonic), so a point whose distance
+//! passes the threshold can be dropped at once. Each descriptor keeps what it
+//! needs from one layer to the next in its own `State`: a running sum for the
+//! voxel descriptors, a growing neighbourhood for the curvature one.
+
+pub mod harmonics;
+pub mod volume;
+
+pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
+pub use volume::{Ball, VolumeDescriptor};
+
+/// A layered descriptor compared against a template's, point by point.
+pub trait OnionDescriptor: Sync {
+    /// Per-point data carried from one layer to the next.
+    type State: Send;
+
+    /// Short name, as reported in per-layer statistics ("volume", ...).
+    fn name(&self) -> &'static str;
+
+    /// Number of layers k.
+    fn layers(&self) -> usize;
+
+    /// Radius of layer `layer` (0-based) in world units.
+    fn radius(&self, layer: usize) -> f64;
+
+    /// The rejection threshold on the running distance.
+    fn threshold(&self) -> f64;
+
+    /// Fresh state for scene point `point`.
+    fn start(&self, point: u32) -> Self::State;
+
+    /// Computes layer `layer` at `point` (layers come in order, each once)
+    /// and returns the running distance to the template's layers `0..=layer`.
+    fn extend(&self, point: u32, layer: usize, state: &mut Self::State) -> f64;
+}

@@ -1,0 +1,132 @@
+//! A scene ready to search: its mesh, its solid voxel grid and the candidate
+//! points (skin voxels). Built once, searched any number of times.
+
+use crate::clock::now_ms;
+use crate::error::Result;
+use crate::exec::Backend;
+use crate::math::Vec3;
+use crate::mesh::TriMesh;
+use crate::voxel::{Grid, GridSpec, skin, voxelize};
+
+/// How to voxelize a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct SceneOptions {
+    /// Voxels along the scene's longest side. Default: 512 (the paper's).
+    pub resolution: u32,
+    /// Refuse grids whose working set would pass this many bytes.
+    /// Default: 2 GiB.
+    pub max_grid_bytes: u64,
+    /// Serial or parallel. Default: parallel.
+    pub backend: Backend,
+}
+
+impl SceneOptions {
+    /// The defaults.
+    pub const DEFAULT: SceneOptions = SceneOptions {
+        resolution: 512,
+        max_grid_bytes: 2 << 30,
+        backend: Backend::Parallel,
+    };
+
+    /// With another resolution.
+    pub const fn with_resolution(mut self, resolution: u32) -> Self {
+        self.resolution = resolution;
+        self
+    }
+
+    /// With another memory cap.
+    pub const fn with_max_grid_bytes(mut self, bytes: u64) -> Self {
+        self.max_grid_bytes = bytes;
+        self
+    }
+
+    /// With another backend.
+    pub const fn with_backend(mut self, backend: Backend) -> Self {
+        self.backend = backend;
+        self
+    }
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Bit grids alive at once while voxelizing (surface, interior, solid, skin).
+pub(crate) const GRIDS_IN_FLIGHT: u64 = 4;
+
+/// A voxelized scene.
+pub struct Scene {
+    mesh: TriMesh,
+    grid: Grid,
+    skin: Vec<[u16; 3]>,
+    resolution: u32,
+    voxelize_ms: f64,
+}
+
+impl Scene {
+    /// Voxelizes `mesh`.
+    pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
+        let start = now_ms();
+        let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
+        spec.check_memory(GRIDS_IN_FLIGHT, options.max_grid_bytes, options.resolution)?;
+        let grid = voxelize(&mesh, &spec, options.backend);
+        let skin = skin(&grid).iter_ones().collect();
+        Ok(Scene {
+            mesh,
+            grid,
+            skin,
+            resolution: options.resolution,
+            voxelize_ms: now_ms() - start,
+        })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &TriMesh {
+        &self.mesh
+    }
+
+    /// The solid grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The candidate points: skin voxels in z, y, x order.
+    pub fn skin(&self) -> &[[u16; 3]] {
+        &self.skin
+    }
+
+    /// The resolution it was voxelized at.
+    pub fn resolution(&self) -> u32 {
+        self.resolution
+    }
+
+    /// Edge length of a voxel in world units.
+    pub fn voxel_size(&self) -> f64 {
+        self.grid.spec().voxel_size
+    }
+
+    /// How long voxelization took, in milliseconds.
+    pub fn voxelize_ms(&self) -> f64 {
+        self.voxelize_ms
+    }
+
+    /// World position of candidate point `i`.
+    pub fn position(&self, i: u32) -> Vec3 {
+        self.grid.spec().center(self.skin[i as usize])
+    }
+}
+
+/// The set voxel of `points` whose centre is nearest to world point `p`.
+pub(crate) fn nearest_voxel(spec: &GridSpec, points: &[[u16; 3]], p: Vec3) -> Option<[u16; 3]> {
+    points
+        .iter()
+        .min_by(|a, b| {
+            (spec.center(**a) - p)
+                .norm2()
+                .total_cmp(&(spec.center(**b) - p).norm2())
+        })
+        .copied()
+}

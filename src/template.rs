@@ -1,0 +1,151 @@
+//! Templates: what to look for, reduced to a centre c_T, radii r_1..r_k and
+//! the voxel grid its descriptors are read from.
+//!
+//! - A separate model: c_T is the surface point nearest to the centre of the
+//!   model's minimal bounding sphere, r_k the distance from c_T to the
+//!   farthest model point (paper, sec. 5). The model is voxelized with the
+//!   scene's voxel size, so that radii and fractions mean the same on both
+//!   sides.
+//! - A selection sphere on the scene: its centre snapped to the nearest
+//!   surface point, and its radius; the descriptors are read from the scene.
+//!
+//! The radii are evenly spaced, r_i = r_k i / k. The descriptors are computed
+//! at the skin voxel nearest to c_T, a point of the same kind as the scene's
+//! candidates.
+
+use crate::error::{Error, Result};
+use crate::exec::Backend;
+use crate::math::Vec3;
+use crate::mesh::{TriMesh, minimal_bounding_sphere};
+use crate::scene::{GRIDS_IN_FLIGHT, Scene, nearest_voxel};
+use crate::voxel::{Grid, GridSpec, skin, voxelize};
+
+/// Below this many voxels, the first layer cannot describe anything.
+pub const MIN_RADIUS_VOXELS: f64 = 1.5;
+
+/// Where a template comes from.
+#[derive(Clone, Debug)]
+pub enum TemplateSource {
+    /// A separate model, in its own coordinates.
+    Model(TriMesh),
+    /// A part of the scene inside a sphere (world coordinates).
+    Selection {
+        /// Centre of the sphere.
+        center: [f64; 3],
+        /// Its radius.
+        radius: f64,
+    },
+}
+
+/// A template prepared against a scene.
+pub struct Template {
+    center: Vec3,
+    radius: f64,
+    radii: Vec<f64>,
+    own_grid: Option<Grid>,
+    voxel: [u16; 3],
+}
+
+impl Template {
+    /// Prepares `source` for searching `scene` with `layers` radii.
+    pub fn new(
+        source: &TemplateSource,
+        scene: &Scene,
+        layers: usize,
+        backend: Backend,
+        max_grid_bytes: u64,
+    ) -> Result<Template> {
+        if layers == 0 {
+            return Err(Error::invalid_option(
+                "layers",
+                "at least one layer is needed",
+            ));
+        }
+        let voxel_size = scene.voxel_size();
+        let (center, radius, own_grid, voxel) = match source {
+            TemplateSource::Model(mesh) => {
+                let used: Vec<Vec3> = mesh
+                    .triangles()
+                    .iter()
+                    .flatten()
+                    .map(|&i| mesh.vertex(i))
+                    .collect();
+                let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
+                let center = mesh.closest_point(sphere.center).point;
+                let radius = used.iter().map(|p| p.dist(center)).fold(0.0, f64::max);
+                let spec = GridSpec::around(mesh.bounds(), voxel_size);
+                spec.check_memory(GRIDS_IN_FLIGHT, max_grid_bytes, scene.resolution())?;
+                let grid = voxelize(mesh, &spec, backend);
+                let skin: Vec<[u16; 3]> = skin(&grid).iter_ones().collect();
+                let voxel = nearest_voxel(&spec, &skin, center).expect("a voxelized mesh has skin");
+                (center, radius, Some(grid), voxel)
+            }
+            &TemplateSource::Selection { center, radius } => {
+                let c = Vec3::new(center[0], center[1], center[2]);
+                if !(c.x.is_finite() && c.y.is_finite() && c.z.is_finite())
+                    || !(radius.is_finite() && radius > 0.0)
+                {
+                    return Err(Error::invalid_option(
+                        "select",
+                        format!(
+                            "the sphere needs a finite centre and a positive radius, got {center:?} and {radius}"
+                        ),
+                    ));
+                }
+                let nearest = scene.mesh().closest_point(c);
+                let distance = nearest.distance2.sqrt();
+                if distance > radius {
+                    return Err(Error::SelectionMissesScene {
+                        center,
+                        radius,
+                        distance,
+                    });
+                }
+                let voxel = nearest_voxel(scene.grid().spec(), scene.skin(), nearest.point)
+                    .expect("a scene has skin");
+                (nearest.point, radius, None, voxel)
+            }
+        };
+        let first = radius / layers as f64;
+        if first / voxel_size < MIN_RADIUS_VOXELS {
+            return Err(Error::TemplateTooSmall {
+                radius_voxels: first / voxel_size,
+                min_voxels: MIN_RADIUS_VOXELS,
+            });
+        }
+        Ok(Template {
+            center,
+            radius,
+            radii: (1..=layers)
+                .map(|i| radius * i as f64 / layers as f64)
+                .collect(),
+            own_grid,
+            voxel,
+        })
+    }
+
+    /// c_T: in the model's coordinates, or in world coordinates for a selection.
+    pub fn center(&self) -> Vec3 {
+        self.center
+    }
+
+    /// The outer radius r_k.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// r_1..r_k.
+    pub fn radii(&self) -> &[f64] {
+        &self.radii
+    }
+
+    /// The grid the template's descriptors are read from.
+    pub fn grid<'a>(&'a self, scene: &'a Scene) -> &'a Grid {
+        self.own_grid.as_ref().unwrap_or(scene.grid())
+    }
+
+    /// The voxel the template's descriptors are computed at.
+    pub fn voxel(&self) -> [u16; 3] {
+        self.voxel
+    }
+}
