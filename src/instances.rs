@@ -1,11 +1,19 @@
-//! Grouping survivors into instances.
+//! From survivors to instances.
 //!
-//! The points that pass the cascade gather in small clusters around each
-//! occurrence's centre. Grouping is a greedy non-maximum suppression: the best
-//! remaining point (smallest distance) founds an instance, and every survivor
-//! within the grouping radius of it joins that instance. The radius is a
-//! fraction of the template's outer radius: occurrences whose centres are
-//! closer than that would overlap almost entirely.
+//! The points that pass the cascade gather in blobs: around each occurrence's
+//! centre, and around places the rotation-invariant descriptors cannot tell
+//! from it (a mirror-symmetric twin, a similar part). So:
+//!
+//! 1. [`local_bests`]: the best point (smallest distance) of each blob, by a
+//!    greedy suppression at a small radius;
+//! 2. each local best is verified ([`crate::verify`]): the template placed
+//!    there with a proper rotation must overlap the scene;
+//! 3. [`group`]: among the verified points, the best placement founds an
+//!    instance, reported where the placement puts the template's point c_T,
+//!    and claims every other placement within the template's outer radius
+//!    r_k: an occurrence owns the ball its descriptor describes, and two
+//!    occurrences whose centres are closer than that would overlap almost
+//!    entirely.
 
 use crate::cascade::Survivor;
 use crate::math::Vec3;
@@ -13,36 +21,89 @@ use crate::math::Vec3;
 /// One occurrence of the template.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Instance {
-    /// World position of the best point.
+    /// World position of the instance's point (where c_T lies).
     pub position: [f64; 3],
     /// Its final descriptor distance.
     pub distance: f64,
+    /// Verification score: overlap of the placed template and the scene (0..1).
+    pub score: f64,
     /// How many surviving points the instance gathered.
     pub support: usize,
 }
 
-/// Groups survivors (deterministically: ties go to the lower point index).
-pub fn group(survivors: &[Survivor], position: impl Fn(u32) -> Vec3, radius: f64) -> Vec<Instance> {
+/// A survivor with its verification.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Verified {
+    /// The cascade's survivor.
+    pub survivor: Survivor,
+    /// Its verification score.
+    pub score: f64,
+    /// Where its placement puts the template's point c_T (world).
+    pub position: Vec3,
+}
+
+/// The best survivor of each blob: survivors are taken by increasing
+/// distance (ties by point index) and each suppresses the others within
+/// `radius`.
+pub fn local_bests(
+    survivors: &[Survivor],
+    position: impl Fn(u32) -> Vec3,
+    radius: f64,
+) -> Vec<Survivor> {
     let mut order: Vec<&Survivor> = survivors.iter().collect();
     order.sort_by(|a, b| {
         a.distance
             .total_cmp(&b.distance)
             .then(a.point.cmp(&b.point))
     });
-    let mut found: Vec<(Vec3, Instance)> = Vec::new();
     let r2 = radius * radius;
+    let mut kept: Vec<(Vec3, Survivor)> = Vec::new();
     for s in order {
         let p = position(s.point);
-        match found.iter_mut().find(|(c, _)| (*c - p).norm2() <= r2) {
-            Some((_, inst)) => inst.support += 1,
-            None => found.push((
+        if kept.iter().all(|(q, _)| (*q - p).norm2() > r2) {
+            kept.push((p, *s));
+        }
+    }
+    kept.into_iter().map(|(_, s)| s).collect()
+}
+
+/// Instances from verified points, each at the position its placement
+/// implies (best score first, ties by distance, then point index);
+/// `survivors` are all the cascade's survivors, counted as the support of the
+/// instance whose ball they fall in.
+pub fn group(
+    verified: &[Verified],
+    survivors: &[Survivor],
+    position: impl Fn(u32) -> Vec3,
+    radius: f64,
+) -> Vec<Instance> {
+    let mut order: Vec<&Verified> = verified.iter().collect();
+    order.sort_by(|a, b| {
+        b.score
+            .total_cmp(&a.score)
+            .then(a.survivor.distance.total_cmp(&b.survivor.distance))
+            .then(a.survivor.point.cmp(&b.survivor.point))
+    });
+    let r2 = radius * radius;
+    let mut found: Vec<(Vec3, Instance)> = Vec::new();
+    for v in order {
+        let p = v.position;
+        if found.iter().all(|(c, _)| (*c - p).norm2() > r2) {
+            found.push((
                 p,
                 Instance {
                     position: p.to_array(),
-                    distance: s.distance,
-                    support: 1,
+                    distance: v.survivor.distance,
+                    score: v.score,
+                    support: 0,
                 },
-            )),
+            ));
+        }
+    }
+    for s in survivors {
+        let p = position(s.point);
+        if let Some((_, inst)) = found.iter_mut().find(|(c, _)| (*c - p).norm2() <= r2) {
+            inst.support += 1;
         }
     }
     found.into_iter().map(|(_, i)| i).collect()
@@ -53,26 +114,42 @@ mod tests {
     use super::*;
 
     #[test]
-    fn clusters_become_instances_at_their_best_point() {
+    fn blobs_reduce_to_their_best_and_instances_to_their_best_placement() {
         let pts = [
             Vec3::new(0.0, 0.0, 0.0),
             Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.6, 0.0, 0.0),
             Vec3::new(5.0, 0.0, 0.0),
             Vec3::new(5.1, 0.1, 0.0),
-            Vec3::new(5.2, 0.0, 0.0),
         ];
-        let d = [0.3, 0.2, 0.5, 0.1, 0.4];
+        let d = [0.3, 0.2, 0.25, 0.1, 0.4];
         let s: Vec<Survivor> = (0..5)
             .map(|i| Survivor {
                 point: i,
                 distance: d[i as usize],
             })
             .collect();
-        let g = group(&s, |i| pts[i as usize], 1.0);
+        let pos = |i: u32| pts[i as usize];
+        let bests = local_bests(&s, pos, 0.2);
+        assert_eq!(
+            bests.iter().map(|b| b.point).collect::<Vec<_>>(),
+            vec![3, 1, 2]
+        );
+        // Point 2 (a "twin" at 0.6) places the template worse than point 1.
+        let scores = [0.0, 0.9, 0.5, 0.95, 0.0];
+        let v: Vec<Verified> = bests
+            .iter()
+            .map(|&b| Verified {
+                survivor: b,
+                score: scores[b.point as usize],
+                position: pos(b.point),
+            })
+            .collect();
+        let g = group(&v, &s, pos, 1.0);
         assert_eq!(g.len(), 2);
-        assert_eq!(g[0].position, [5.1, 0.1, 0.0]);
-        assert_eq!(g[0].support, 3);
+        assert_eq!(g[0].position, [5.0, 0.0, 0.0]);
+        assert_eq!(g[0].support, 2);
         assert_eq!(g[1].position, [0.1, 0.0, 0.0]);
-        assert_eq!(g[1].support, 2);
+        assert_eq!(g[1].support, 3);
     }
 }

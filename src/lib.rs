@@ -1,5 +1,9 @@
 //! fast-reject: find every occurrence of a template shape in a 3D scene.
 
+// Numeric kernels index several arrays with one loop index; iterator chains
+// would hide the arithmetic.
+#![allow(clippy::needless_range_loop)]
+
 pub mod cascade;
 pub mod clock;
 pub mod descriptor;
@@ -11,6 +15,7 @@ pub mod mesh;
 pub mod scene;
 pub mod search;
 pub mod template;
+pub mod verify;
 pub mod voxel;
 
 pub use error::{Error, Format, Result};

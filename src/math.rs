@@ -215,3 +215,85 @@ mod tests {
         }
     }
 }
+
+/// A symmetric 3x3 matrix's eigenvalues (descending) and unit eigenvectors
+/// (`vectors[i]` belongs to `values[i]`), by cyclic Jacobi rotations: slow
+/// next to closed forms but exact to rounding even for repeated eigenvalues.
+pub fn symmetric_eigen(m: [[f64; 3]; 3]) -> ([f64; 3], [Vec3; 3]) {
+    let mut a = m;
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..64 {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let scale = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2] + off;
+        if off <= 1e-30 * scale.max(f64::MIN_POSITIVE) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // a <- J^T a J, v <- v J, with J the rotation in the (p, q) plane.
+            for k in 0..3 {
+                let (akp, akq) = (a[k][p], a[k][q]);
+                a[k][p] = c * akp - s * akq;
+                a[k][q] = s * akp + c * akq;
+            }
+            for k in 0..3 {
+                let (apk, aqk) = (a[p][k], a[q][k]);
+                a[p][k] = c * apk - s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let mut order = [0, 1, 2];
+    order.sort_by(|&i, &j| a[j][j].total_cmp(&a[i][i]));
+    let values = order.map(|i| a[i][i]);
+    let vectors = order.map(|i| Vec3::new(v[0][i], v[1][i], v[2][i]));
+    (values, vectors)
+}
+
+#[cfg(test)]
+mod eigen_tests {
+    use super::*;
+
+    #[test]
+    fn reconstructs_random_symmetric_matrices() {
+        let mut s: u64 = 5;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for _ in 0..200 {
+            let (a, b, c, d, e, f) = (rnd(), rnd(), rnd(), rnd(), rnd(), rnd());
+            let m = [[a, b, c], [b, d, e], [c, e, f]];
+            let (vals, vecs) = symmetric_eigen(m);
+            assert!(vals[0] >= vals[1] && vals[1] >= vals[2]);
+            for i in 0..3 {
+                let x = vecs[i];
+                let mx = Vec3::new(
+                    m[0][0] * x.x + m[0][1] * x.y + m[0][2] * x.z,
+                    m[1][0] * x.x + m[1][1] * x.y + m[1][2] * x.z,
+                    m[2][0] * x.x + m[2][1] * x.y + m[2][2] * x.z,
+                );
+                assert!((mx - x * vals[i]).norm() < 1e-12, "{m:?}");
+                assert!((x.norm() - 1.0).abs() < 1e-12);
+            }
+            assert!(vecs[0].dot(vecs[1]).abs() < 1e-12);
+        }
+        // Repeated eigenvalues.
+        let (vals, _) = symmetric_eigen([[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]]);
+        assert_eq!(vals, [2.0, 2.0, 1.0]);
+    }
+}

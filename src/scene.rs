@@ -6,7 +6,7 @@ use crate::error::Result;
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
-use crate::voxel::{Grid, GridSpec, skin, voxelize};
+use crate::voxel::{Grid, GridSpec, Solid, skin, voxelize};
 
 /// How to voxelize a scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,7 +60,7 @@ pub(crate) const GRIDS_IN_FLIGHT: u64 = 4;
 /// A voxelized scene.
 pub struct Scene {
     mesh: TriMesh,
-    grid: Grid,
+    solid: Solid,
     skin: Vec<[u16; 3]>,
     resolution: u32,
     voxelize_ms: f64,
@@ -76,7 +76,7 @@ impl Scene {
         let skin = skin(&grid).iter_ones().collect();
         Ok(Scene {
             mesh,
-            grid,
+            solid: Solid::new(grid),
             skin,
             resolution: options.resolution,
             voxelize_ms: now_ms() - start,
@@ -88,9 +88,14 @@ impl Scene {
         &self.mesh
     }
 
-    /// The solid grid.
+    /// The solid bit grid.
     pub fn grid(&self) -> &Grid {
-        &self.grid
+        self.solid.bits()
+    }
+
+    /// The solid with its count pyramid.
+    pub fn solid(&self) -> &Solid {
+        &self.solid
     }
 
     /// The candidate points: skin voxels in z, y, x order.
@@ -105,7 +110,7 @@ impl Scene {
 
     /// Edge length of a voxel in world units.
     pub fn voxel_size(&self) -> f64 {
-        self.grid.spec().voxel_size
+        self.grid().spec().voxel_size
     }
 
     /// How long voxelization took, in milliseconds.
@@ -115,7 +120,7 @@ impl Scene {
 
     /// World position of candidate point `i`.
     pub fn position(&self, i: u32) -> Vec3 {
-        self.grid.spec().center(self.skin[i as usize])
+        self.grid().spec().center(self.skin[i as usize])
     }
 }
 

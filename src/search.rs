@@ -8,9 +8,10 @@ use crate::clock::now_ms;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
-use crate::instances::{Instance, group};
+use crate::instances::{Instance, Verified, group, local_bests};
 use crate::scene::Scene;
 use crate::template::{Template, TemplateSource};
+use crate::verify::Verifier;
 
 /// Which descriptors the cascade runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -67,12 +68,17 @@ pub struct MatchOptions {
     /// Volume stage: bound on the sum of fraction differences. Default: 0.12
     /// (the paper's epsilon').
     pub volume_threshold: f64,
-    /// Harmonics stage: bound on the L2 distance of the normalized
-    /// signatures. Default: see [`MatchOptions::DEFAULT`].
+    /// Harmonics stage: bound on the normalized distance, in voxels of
+    /// equivalent deviation (see [`crate::descriptor::harmonics`]).
+    /// Default: 0.8.
     pub harmonics_threshold: f64,
     /// Survivors within this fraction of r_k of a better one join its
-    /// instance. Default: 0.5.
+    /// instance: an occurrence claims the ball its descriptor describes.
+    /// Default: 1.0.
     pub group_radius: f64,
+    /// Verification: the least overlap (intersection over union, 0..1) of the
+    /// template placed at a point with the scene there. Default: 0.75.
+    pub verify_threshold: f64,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
     /// Cap on the template's voxel grid. Default: 2 GiB.
@@ -85,8 +91,9 @@ impl MatchOptions {
         descriptor: DescriptorKind::VolumeHarmonics,
         layers: 6,
         volume_threshold: 0.12,
-        harmonics_threshold: 0.5,
-        group_radius: 0.5,
+        harmonics_threshold: 0.8,
+        group_radius: 1.0,
+        verify_threshold: 0.75,
         backend: Backend::Parallel,
         max_grid_bytes: 2 << 30,
     };
@@ -105,6 +112,12 @@ impl MatchOptions {
         positive("volume threshold", self.volume_threshold)?;
         positive("harmonics threshold", self.harmonics_threshold)?;
         positive("group radius", self.group_radius)?;
+        if !(0.0..=1.0).contains(&self.verify_threshold) {
+            return Err(Error::invalid_option(
+                "verify threshold",
+                format!("must lie in 0..=1, got {}", self.verify_threshold),
+            ));
+        }
         if !(1..=64).contains(&self.layers) {
             return Err(Error::invalid_option(
                 "layers",
@@ -153,7 +166,7 @@ pub struct Timings {
     /// The cascade.
     #[serde(rename = "match")]
     pub match_: f64,
-    /// Grouping survivors.
+    /// Verifying and grouping survivors.
     pub group: f64,
     /// All of the above.
     pub total: f64,
@@ -199,24 +212,26 @@ pub fn search(
         options.max_grid_bytes,
     )?;
     let radii = template.radii();
-    let (tgrid, tvoxel) = (template.grid(scene), template.voxel());
+    let (tsolid, tvoxel, backend) = (template.solid(scene), template.voxel(), options.backend);
     let transform = SphericalTransform::new();
     let volume = VolumeDescriptor::new(
-        scene.grid(),
+        scene.solid(),
         scene.skin(),
         radii,
-        VolumeDescriptor::describe(tgrid, tvoxel, radii),
+        VolumeDescriptor::describe(tsolid, tvoxel, radii, backend),
         options.volume_threshold,
+        backend,
     );
     let harmonics = match options.descriptor {
         DescriptorKind::Volume => None,
         _ => Some(HarmonicsDescriptor::new(
-            scene.grid(),
+            scene.solid(),
             scene.skin(),
             &transform,
             radii,
-            HarmonicsDescriptor::describe(tgrid, tvoxel, radii, &transform),
+            HarmonicsDescriptor::describe(tsolid, tvoxel, radii, &transform, backend),
             options.harmonics_threshold,
+            backend,
         )),
     };
     let mut stages: Vec<&dyn Stage> = Vec::new();
@@ -230,9 +245,31 @@ pub fn search(
     let candidates = (0..scene.skin().len() as u32).collect();
     let (survivors, stats) = run_cascade(&stages, candidates, options.backend, observer)?;
     let t2 = now_ms();
+    let position = |p| scene.position(p);
+    let bests = local_bests(&survivors, position, radii[0]);
+    let verifier = Verifier::new(
+        tsolid,
+        tvoxel,
+        template.radius() / scene.voxel_size(),
+        backend,
+    );
+    let voxel = scene.voxel_size();
+    let verified: Vec<Verified> = backend
+        .map(bests.len(), |i| {
+            let placement = verifier.check(scene.solid(), scene.skin()[bests[i].point as usize]);
+            Verified {
+                survivor: bests[i],
+                score: placement.score,
+                position: scene.position(bests[i].point) + placement.offset * voxel,
+            }
+        })
+        .into_iter()
+        .filter(|v| v.score >= options.verify_threshold)
+        .collect();
     let instances = group(
+        &verified,
         &survivors,
-        |p| scene.position(p),
+        position,
         options.group_radius * template.radius(),
     );
     let t3 = now_ms();

@@ -18,7 +18,7 @@ use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::{TriMesh, minimal_bounding_sphere};
 use crate::scene::{GRIDS_IN_FLIGHT, Scene, nearest_voxel};
-use crate::voxel::{Grid, GridSpec, skin, voxelize};
+use crate::voxel::{GridSpec, Solid, skin, voxelize};
 
 /// Below this many voxels, the first layer cannot describe anything.
 pub const MIN_RADIUS_VOXELS: f64 = 1.5;
@@ -42,7 +42,7 @@ pub struct Template {
     center: Vec3,
     radius: f64,
     radii: Vec<f64>,
-    own_grid: Option<Grid>,
+    own_solid: Option<Solid>,
     voxel: [u16; 3],
 }
 
@@ -62,7 +62,7 @@ impl Template {
             ));
         }
         let voxel_size = scene.voxel_size();
-        let (center, radius, own_grid, voxel) = match source {
+        let (center, radius, own_solid, voxel) = match source {
             TemplateSource::Model(mesh) => {
                 let used: Vec<Vec3> = mesh
                     .triangles()
@@ -78,13 +78,12 @@ impl Template {
                 let grid = voxelize(mesh, &spec, backend);
                 let skin: Vec<[u16; 3]> = skin(&grid).iter_ones().collect();
                 let voxel = nearest_voxel(&spec, &skin, center).expect("a voxelized mesh has skin");
-                (center, radius, Some(grid), voxel)
+                (center, radius, Some(Solid::new(grid)), voxel)
             }
             &TemplateSource::Selection { center, radius } => {
                 let c = Vec3::new(center[0], center[1], center[2]);
-                if !(c.x.is_finite() && c.y.is_finite() && c.z.is_finite())
-                    || !(radius.is_finite() && radius > 0.0)
-                {
+                let finite = c.x.is_finite() && c.y.is_finite() && c.z.is_finite();
+                if !(finite && radius.is_finite() && radius > 0.0) {
                     return Err(Error::invalid_option(
                         "select",
                         format!(
@@ -119,7 +118,7 @@ impl Template {
             radii: (1..=layers)
                 .map(|i| radius * i as f64 / layers as f64)
                 .collect(),
-            own_grid,
+            own_solid,
             voxel,
         })
     }
@@ -139,9 +138,9 @@ impl Template {
         &self.radii
     }
 
-    /// The grid the template's descriptors are read from.
-    pub fn grid<'a>(&'a self, scene: &'a Scene) -> &'a Grid {
-        self.own_grid.as_ref().unwrap_or(scene.grid())
+    /// The solid the template's descriptors are read from.
+    pub fn solid<'a>(&'a self, scene: &'a Scene) -> &'a Solid {
+        self.own_solid.as_ref().unwrap_or(scene.solid())
     }
 
     /// The voxel the template's descriptors are computed at.

@@ -13,15 +13,28 @@
 //! - Transform: a DFT per ring for orders m < L, then Fejer's quadrature
 //!   (exact for polynomials of degree < 2B in cos theta) against fully
 //!   normalized associated Legendre functions.
-//! - Normalization: `s_l = ||f_l|| / sqrt(4 pi)`. By Parseval,
+//! - Signature normalization: `s_l = ||f_l|| / sqrt(4 pi)`. By Parseval,
 //!   `sum_l s_l^2` is the mean of f^2 over the sphere, at most 1 (a sphere
-//!   wholly inside the solid gives s_0 = 1 and nothing else). The values do
-//!   not depend on the radius, the voxel size or the scene, so one distance
-//!   threshold serves every sphere and every scene; the running distance is
-//!   the L2 norm over all spheres so far (monotonic in the layer).
+//!   wholly inside the solid gives s_0 = 1 and nothing else), whatever the
+//!   radius, voxel size or scene.
+//! - Distance normalization: what separates a true occurrence from the
+//!   template is discretization, not shape: the centre lands up to a voxel
+//!   away, the rotated copy aliases differently, a remeshed surface moves by
+//!   a fraction of a voxel. A deviation of delta voxels changes the
+//!   signature of a sphere of R voxels by about delta / R, so small spheres
+//!   are noisy and large ones are not (measured on the shared scenes: the
+//!   error of true matches falls as 1/R while false matches differ most on
+//!   the large spheres). Each sphere's L2 difference is therefore scaled by
+//!   its radius in voxels, and the running distance is the root mean square
+//!   of these over the k spheres:
+//!   `D_i = sqrt(sum_{j <= i} (R_j / voxel)^2 ||s_j - t_j||^2 / k)`.
+//!   D reads as "the template deviates like a shift of D voxels", the same
+//!   scale for every sphere, template size and scene, which is what lets one
+//!   threshold serve them all; it only grows with i (monotonic).
 
 use super::OnionDescriptor;
-use crate::voxel::Grid;
+use crate::exec::Backend;
+use crate::voxel::{Grid, Solid, level_for_radius};
 use std::f64::consts::PI;
 
 /// Bandwidth: 2B x 2B samples per sphere.
@@ -204,43 +217,59 @@ fn normalized_legendre(x: f64) -> Vec<Vec<f64>> {
     p
 }
 
-/// Where the samples of one sphere fall relative to a voxel centre: integer
-/// offset of the lower interpolation corner and the fractional position,
-/// bound to one grid's layout so that a sample costs an add and four reads.
+/// Spheres are sampled from pyramid blocks at least this many times smaller
+/// than their radius: the degrees kept (l < 16) only resolve features of
+/// about 0.2 r, so a block average up to 0.1 r loses nothing they could see,
+/// and it removes the aliasing of sampling a binary grid far sparser than
+/// its voxels.
+pub const BLOCKS_PER_RADIUS: f64 = 10.0;
+
+/// Where the samples of one sphere fall, bound to one solid's layout.
 pub struct SphereSampler {
     radius: f64,
-    /// Word offset of the lower corner's row (y, z) from the centre's row.
-    row: Vec<i64>,
-    /// Offsets in voxels, for samples near the grid border.
+    level: u32,
+    /// Level 0: offset of the lower interpolation corner (voxels), its row
+    /// as a word offset, and the fractional position.
     offset: Vec<[i32; 3]>,
+    row: Vec<i64>,
     frac: Vec<[f32; 3]>,
+    /// Level > 0: the sample directions times the radius, in blocks.
+    reach_blocks: Vec<[f32; 3]>,
     reach: i64,
-    /// Words per row and per z plane of the bound grid.
     wpr: usize,
     plane: usize,
     dims: [usize; 3],
 }
 
 impl SphereSampler {
-    /// The sampling pattern of a sphere of `radius` voxels on `grid`.
-    pub fn new(radius: f64, grid: &Grid) -> SphereSampler {
+    /// The sampling pattern of a sphere of `radius` voxels on `solid`.
+    pub fn new(radius: f64, solid: &Solid, backend: Backend) -> SphereSampler {
+        let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
+        let grid = solid.bits();
         let dims = grid.dims();
         let wpr = grid.words_per_row();
         let mut s = SphereSampler {
             radius,
-            row: Vec::with_capacity(RINGS * SECTORS),
-            offset: Vec::with_capacity(RINGS * SECTORS),
-            frac: Vec::with_capacity(RINGS * SECTORS),
+            level,
+            offset: Vec::new(),
+            row: Vec::new(),
+            frac: Vec::new(),
+            reach_blocks: Vec::new(),
             reach: radius.ceil() as i64 + 1,
             wpr,
             plane: wpr * dims[1],
             dims,
         };
+        let scale = f64::from(1u32 << level);
         for j in 0..RINGS {
             let (st, ct) = theta(j).sin_cos();
             for k in 0..SECTORS {
                 let (sp, cp) = phi(k).sin_cos();
                 let d = [st * cp * radius, st * sp * radius, ct * radius];
+                if level > 0 {
+                    s.reach_blocks.push(d.map(|c| (c / scale) as f32));
+                    continue;
+                }
                 let b = d.map(|c| c.floor());
                 let o = [b[0] as i32, b[1] as i32, b[2] as i32];
                 s.row
@@ -253,6 +282,9 @@ impl SphereSampler {
                 ]);
             }
         }
+        if level > 0 {
+            solid.level(level, backend);
+        }
         s
     }
 
@@ -261,9 +293,18 @@ impl SphereSampler {
         self.radius
     }
 
-    /// Samples the solid on the sphere around voxel `v` of `grid` (the grid
-    /// it was made for; voxels outside the grid read as empty).
-    pub fn sample(&self, grid: &Grid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
+    /// The pyramid level it reads.
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// Samples the solid fraction on the sphere around voxel `v` of `solid`
+    /// (the solid it was made for; outside the grid reads as empty).
+    pub fn sample(&self, solid: &Solid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
+        if self.level > 0 {
+            return self.sample_blocks(solid, v, out);
+        }
+        let grid = solid.bits();
         debug_assert_eq!(grid.dims(), self.dims);
         let c = v.map(|x| x as i64);
         let words = grid.words();
@@ -293,6 +334,63 @@ impl SphereSampler {
                 255 => 1.0,
                 _ => trilinear(code, self.frac[s]),
             };
+        }
+    }
+
+    /// Level > 0: trilinear interpolation of block occupancy.
+    fn sample_blocks(&self, solid: &Solid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
+        let level = solid.level(self.level, Backend::Serial);
+        let s = 1u32 << self.level;
+        let dims = level.dims();
+        let occ = level.occupancy();
+        let (row, plane) = (dims[0], dims[0] * dims[1]);
+        // The voxel centre in block coordinates (block b's centre at b).
+        let centre = v.map(|c| {
+            (c >> self.level) as f32
+                + ((c as u32 & (s - 1)) as f32 - (s as f32 - 1.0) / 2.0) / s as f32
+        });
+        let limit = dims.map(|d| d as i64 - 1);
+        const NORM: f32 = 1.0 / 255.0;
+        for (o, r) in out.iter_mut().zip(&self.reach_blocks) {
+            let q = [centre[0] + r[0], centre[1] + r[1], centre[2] + r[2]];
+            let fl = q.map(f32::floor);
+            let b = fl.map(|c| c as i64);
+            let f = [q[0] - fl[0], q[1] - fl[1], q[2] - fl[2]];
+            let mut c = [0.0f32; 8];
+            if (0..3).all(|a| b[a] >= 0 && b[a] < limit[a]) {
+                let i = (b[2] as usize * dims[1] + b[1] as usize) * row + b[0] as usize;
+                for (k, start) in [i, i + row, i + plane, i + plane + row]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let pair = &occ[start..start + 2];
+                    c[2 * k] = pair[0] as f32;
+                    c[2 * k + 1] = pair[1] as f32;
+                }
+            } else {
+                for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+                    for dx in 0..2 {
+                        let (x, y, z) = (b[0] + dx, b[1] + dy, b[2] + dz);
+                        if x >= 0
+                            && y >= 0
+                            && z >= 0
+                            && x <= limit[0]
+                            && y <= limit[1]
+                            && z <= limit[2]
+                        {
+                            c[2 * k + dx as usize] =
+                                occ[(z as usize * dims[1] + y as usize) * row + x as usize] as f32;
+                        }
+                    }
+                }
+            }
+            let x00 = c[0] + (c[1] - c[0]) * f[0];
+            let x10 = c[2] + (c[3] - c[2]) * f[0];
+            let x01 = c[4] + (c[5] - c[4]) * f[0];
+            let x11 = c[6] + (c[7] - c[6]) * f[0];
+            let y0 = x00 + (x10 - x00) * f[1];
+            let y1 = x01 + (x11 - x01) * f[1];
+            *o = (y0 + (y1 - y0) * f[2]) * NORM;
         }
     }
 }
@@ -337,15 +435,15 @@ fn trilinear(code: u32, f: [f32; 3]) -> f32 {
     v0 + (v1 - v0) * f[2]
 }
 
-/// The signature of one voxel on one sphere (`sampler` made for `grid`).
+/// The signature of one voxel on one sphere (`sampler` made for `solid`).
 pub fn describe_sphere(
-    grid: &Grid,
+    solid: &Solid,
     v: [u16; 3],
     sampler: &SphereSampler,
     transform: &SphericalTransform,
 ) -> Signature {
     let mut samples = [0.0f32; RINGS * SECTORS];
-    sampler.sample(grid, v, &mut samples);
+    sampler.sample(solid, v, &mut samples);
     transform.signature(&samples)
 }
 
@@ -353,53 +451,68 @@ pub fn describe_sphere(
 /// between its signatures and the template's, over the spheres so far, passes
 /// the threshold.
 pub struct HarmonicsDescriptor<'a> {
-    grid: &'a Grid,
+    solid: &'a Solid,
     points: &'a [[u16; 3]],
     transform: &'a SphericalTransform,
     spheres: Vec<SphereSampler>,
     radii: Vec<f64>,
+    /// (R_j / voxel)^2 / k: see the module doc.
+    weights: Vec<f64>,
     template: Vec<Signature>,
     threshold: f64,
 }
 
 impl<'a> HarmonicsDescriptor<'a> {
-    /// A stage over candidate voxels `points` of the scene `grid`, with the
+    /// A stage over candidate voxels `points` of the scene `solid`, with the
     /// template's signatures at the same radii (world units).
     pub fn new(
-        grid: &'a Grid,
+        solid: &'a Solid,
         points: &'a [[u16; 3]],
         transform: &'a SphericalTransform,
         radii: &[f64],
         template: Vec<Signature>,
         threshold: f64,
+        backend: Backend,
     ) -> Self {
-        let voxel = grid.spec().voxel_size;
+        let voxel = solid.bits().spec().voxel_size;
         HarmonicsDescriptor {
-            grid,
+            solid,
             points,
             transform,
             spheres: radii
                 .iter()
-                .map(|r| SphereSampler::new(r / voxel, grid))
+                .map(|r| SphereSampler::new(r / voxel, solid, backend))
                 .collect(),
             radii: radii.to_vec(),
+            weights: radii
+                .iter()
+                .map(|r| (r / voxel).powi(2) / radii.len() as f64)
+                .collect(),
             template,
             threshold,
         }
     }
 
-    /// The signatures of one voxel of any grid at `radii` (world units): what
-    /// the template side computes.
+    /// The signatures of one voxel of any solid at `radii` (world units):
+    /// what the template side computes.
     pub fn describe(
-        grid: &Grid,
+        solid: &Solid,
         v: [u16; 3],
         radii: &[f64],
         transform: &SphericalTransform,
+        backend: Backend,
     ) -> Vec<Signature> {
-        let voxel = grid.spec().voxel_size;
+        let voxel = solid.bits().spec().voxel_size;
         radii
             .iter()
-            .map(|r| describe_sphere(grid, v, &SphereSampler::new(r / voxel, grid), transform))
+            .map(|r| {
+                describe_sphere(
+                    solid,
+                    v,
+                    &SphereSampler::new(r / voxel, solid, backend),
+                    transform,
+                )
+            })
             .collect()
     }
 }
@@ -429,12 +542,12 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
 
     fn extend(&self, point: u32, layer: usize, sum2: &mut f64) -> f64 {
         let sig = describe_sphere(
-            self.grid,
+            self.solid,
             self.points[point as usize],
             &self.spheres[layer],
             self.transform,
         );
-        *sum2 += signature_distance2(&sig, &self.template[layer]);
+        *sum2 += self.weights[layer] * signature_distance2(&sig, &self.template[layer]);
         sum2.sqrt()
     }
 }

@@ -3,65 +3,140 @@
 //! sum of absolute differences.
 //!
 //! It is cheap and rotation invariant, so it runs first and rejects most
-//! candidates before the spherical harmonics see them. Counting is exact on
-//! the voxel lattice: the ball is a list of row spans along x, and each span
-//! is counted with a few popcounts on the bit-packed grid.
+//! candidates before the spherical harmonics see them. A ball is a list of
+//! runs along x, counted with popcounts on the bit grid for small radii and,
+//! for larger ones, on a level of the count pyramid whose blocks fit about
+//! [`BLOCKS_PER_RADIUS`] times into the radius: there the ball is the set of
+//! blocks whose centres lie within the radius of the (exact) voxel centre,
+//! which keeps the cost of every layer about the same. Template and scene
+//! are read the same way, so the small difference to an exact voxel count
+//! (tested below) cancels out of the comparison.
 
 use super::OnionDescriptor;
-use crate::voxel::Grid;
+use crate::exec::Backend;
+use crate::math::Vec3;
+use crate::voxel::{Grid, Solid, level_for_radius};
 
-/// One row of a digital ball: lattice points `(dx, dy, dz)` with
-/// `|dx| <= half`.
+/// Balls are counted on blocks at least this many times smaller than their
+/// radius. Measured on the cow at the pipeline's radii: the fraction differs
+/// from an exact voxel count by 0.003 on average (0.016 at worst) at 4.5-5.5
+/// blocks, against a threshold of 0.12 on the sum over six layers.
+pub const BLOCKS_PER_RADIUS: f64 = 4.5;
+
+/// One run of a digital ball: blocks (or voxels) `x0..=x1` of the row
+/// `(dy, dz)`, relative to the block holding the centre.
 #[derive(Clone, Copy, Debug)]
 struct Span {
-    dy: i32,
-    dz: i32,
-    half: u32,
+    dy: i16,
+    dz: i16,
+    x0: i16,
+    x1: i16,
 }
 
-/// The lattice points within a radius (in voxels) of a voxel centre.
+/// The runs of the ball for one position of the centre inside its block.
+#[derive(Clone, Debug)]
+struct Phase {
+    spans: Vec<Span>,
+    voxels: u64,
+    /// Reach of the runs below and above the centre block, per axis.
+    lo: [i64; 3],
+    hi: [i64; 3],
+    /// The runs as index pairs into a level's running sums, relative to the
+    /// centre block's entry (set by [`Ball::bind`]).
+    offsets: Vec<(i64, i64)>,
+}
+
+/// The ball of a radius (in voxels) around a voxel centre, as runs of the
+/// pyramid level it is read from.
 #[derive(Clone, Debug)]
 pub struct Ball {
     radius: f64,
-    extent: i64,
-    spans: Vec<Span>,
-    points: u64,
+    level: u32,
+    /// One per position of the centre voxel in its block (s^3 of them).
+    phases: Vec<Phase>,
 }
 
 impl Ball {
-    /// The ball of `radius` voxels.
+    /// The ball of `radius` voxels, read at the level [`BLOCKS_PER_RADIUS`] picks.
     pub fn new(radius: f64) -> Ball {
-        let r2 = radius * radius;
-        let extent = radius.floor() as i64;
-        let mut spans = Vec::new();
-        let mut points = 0;
-        for dz in -extent..=extent {
-            for dy in -extent..=extent {
-                let rest = r2 - (dy * dy + dz * dz) as f64;
-                if rest < 0.0 {
-                    continue;
+        Ball::at_level(radius, level_for_radius(radius, BLOCKS_PER_RADIUS))
+    }
+
+    /// The ball of `radius` voxels read at pyramid level `level`.
+    pub fn at_level(radius: f64, level: u32) -> Ball {
+        let s = 1i64 << level;
+        let mut phases = Vec::with_capacity((s * s * s) as usize);
+        for pz in 0..s {
+            for py in 0..s {
+                for px in 0..s {
+                    phases.push(Ball::phase(radius, s, [px, py, pz]));
                 }
-                let mut half = rest.sqrt().floor() as i64;
-                // Guard the square root's rounding at exact squares.
-                while (half + 1) * (half + 1) <= rest as i64 {
-                    half += 1;
-                }
-                while half * half > rest as i64 && half > 0 {
-                    half -= 1;
-                }
-                spans.push(Span {
-                    dy: dy as i32,
-                    dz: dz as i32,
-                    half: half as u32,
-                });
-                points += 2 * half as u64 + 1;
             }
         }
         Ball {
             radius,
-            extent,
+            level,
+            phases,
+        }
+    }
+
+    /// Blocks of edge `s` whose centres lie within `radius` of a voxel centre
+    /// at position `p` inside its block.
+    fn phase(radius: f64, s: i64, p: [i64; 3]) -> Phase {
+        let sf = s as f64;
+        // The voxel centre relative to its block's centre, in voxels.
+        let o = p.map(|c| c as f64 - (sf - 1.0) / 2.0);
+        let r2 = radius * radius + 1e-9;
+        let range = |o: f64, reach: f64| {
+            (
+                ((o - reach) / sf).ceil() as i64,
+                ((o + reach) / sf).floor() as i64,
+            )
+        };
+        let mut spans = Vec::new();
+        let mut blocks = 0u64;
+        let (z0, z1) = range(o[2], radius);
+        for dz in z0..=z1 {
+            let ez = (sf * dz as f64 - o[2]).powi(2);
+            let (y0, y1) = range(o[1], (r2 - ez).max(0.0).sqrt());
+            for dy in y0..=y1 {
+                let rest = r2 - ez - (sf * dy as f64 - o[1]).powi(2);
+                if rest < 0.0 {
+                    continue;
+                }
+                let (x0, x1) = range(o[0], rest.sqrt());
+                if x0 > x1 {
+                    continue;
+                }
+                spans.push(Span {
+                    dy: dy as i16,
+                    dz: dz as i16,
+                    x0: x0 as i16,
+                    x1: x1 as i16,
+                });
+                blocks += (x1 - x0 + 1) as u64;
+            }
+        }
+        let mut lo = [0i64; 3];
+        let mut hi = [0i64; 3];
+        for sp in &spans {
+            lo = [
+                lo[0].min(sp.x0 as i64),
+                lo[1].min(sp.dy as i64),
+                lo[2].min(sp.dz as i64),
+            ];
+            hi = [
+                hi[0].max(sp.x1 as i64),
+                hi[1].max(sp.dy as i64),
+                hi[2].max(sp.dz as i64),
+            ];
+        }
+        Phase {
             spans,
-            points,
+            voxels: blocks * (s * s * s) as u64,
+            lo,
+            hi,
+            offsets: Vec::new(),
         }
     }
 
@@ -70,46 +145,145 @@ impl Ball {
         self.radius
     }
 
-    /// How many lattice points the ball holds.
-    pub fn points(&self) -> u64 {
-        self.points
+    /// The pyramid level it is read from.
+    pub fn level(&self) -> u32 {
+        self.level
     }
 
-    /// Set voxels of `grid` inside the ball centred on voxel `v` (voxels
-    /// outside the grid count as empty).
-    pub fn count(&self, grid: &Grid, v: [u16; 3]) -> u64 {
-        let [nx, ny, nz] = grid.dims().map(|d| d as i64);
-        let c = v.map(|x| x as i64);
-        let words = grid.words();
-        let wpr = grid.words_per_row() as i64;
-        let e = self.extent;
-        let x_inside = c[0] - e >= 0 && c[0] + e < nx;
-        let rows_inside = c[1] - e >= 0 && c[2] - e >= 0 && c[1] + e < ny && c[2] + e < nz;
+    /// Builds the level this ball reads (if needed) and binds the runs to
+    /// its layout; a ball is then only used with this solid.
+    pub fn bind(mut self, solid: &Solid, backend: Backend) -> Ball {
+        if self.level == 0 {
+            return self;
+        }
+        let level = solid.level(self.level, backend);
+        let (ny, stride) = (level.dims()[1] as i64, level.stride() as i64);
+        for phase in &mut self.phases {
+            phase.offsets = phase
+                .spans
+                .iter()
+                .map(|sp| {
+                    let row = (sp.dz as i64 * ny + sp.dy as i64) * stride;
+                    (row + sp.x0 as i64, row + sp.x1 as i64 + 1)
+                })
+                .collect();
+        }
+        self
+    }
+
+    /// Solid voxels in the ball around voxel `v`, and the voxels the ball
+    /// covers (voxels outside the grid count as empty). The ball must be
+    /// bound to `solid`.
+    pub fn count(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
+        if self.level == 0 {
+            return (
+                count_bits(&self.phases[0].spans, solid.bits(), v),
+                self.phases[0].voxels,
+            );
+        }
+        let level = solid.level(self.level, Backend::Serial);
+        let s = 1usize << self.level;
+        let p = v.map(|c| c as usize & (s - 1));
+        let phase = &self.phases[p[0] + s * (p[1] + s * p[2])];
+        let c = v.map(|x| (x as usize >> self.level) as i64);
+        let d = level.dims().map(|x| x as i64);
+        let sums = level.prefix();
+        let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < d[a]);
         let mut total = 0u64;
-        for s in &self.spans {
-            let (y, z) = (c[1] + s.dy as i64, c[2] + s.dz as i64);
-            if !rows_inside && (y < 0 || z < 0 || y >= ny || z >= nz) {
+        if inside {
+            debug_assert_eq!(phase.offsets.len(), phase.spans.len(), "ball not bound");
+            let base = level.row_start(c[1] as usize, c[2] as usize) as i64 + c[0];
+            for &(lo, hi) in &phase.offsets {
+                total += (sums[(base + hi) as usize] - sums[(base + lo) as usize]) as u64;
+            }
+            return (total, phase.voxels);
+        }
+        for sp in &phase.spans {
+            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
                 continue;
             }
-            let row = ((z * ny + y) * wpr) as usize;
-            let h = s.half as i64;
-            total += if x_inside {
-                count_span(words, row, (c[0] - h) as usize, (c[0] + h) as usize)
-            } else {
-                let (lo, hi) = ((c[0] - h).max(0), (c[0] + h).min(nx - 1));
-                if lo > hi {
-                    continue;
-                }
-                count_span(words, row, lo as usize, hi as usize)
-            } as u64;
+            let (x0, x1) = (
+                (c[0] + sp.x0 as i64).max(0),
+                (c[0] + sp.x1 as i64).min(d[0] - 1),
+            );
+            if x0 <= x1 {
+                total += level.run(
+                    level.row_start(y as usize, z as usize),
+                    x0 as usize,
+                    x1 as usize,
+                ) as u64;
+            }
         }
-        total
+        (total, phase.voxels)
+    }
+
+    /// Calls `visit(offset, solid voxels)` for every block of the ball around
+    /// voxel `v` (level > 0; `offset` from the voxel's centre to the block's,
+    /// in voxels): what moments of the local solid are computed from.
+    pub(crate) fn for_each_block(
+        &self,
+        solid: &Solid,
+        v: [u16; 3],
+        mut visit: impl FnMut(Vec3, u32),
+    ) {
+        assert!(self.level > 0, "blocks exist from level 1");
+        let level = solid.level(self.level, Backend::Serial);
+        let s = 1i64 << self.level;
+        let p = v.map(|c| c as i64 & (s - 1));
+        let phase = &self.phases[(p[0] + s * (p[1] + s * p[2])) as usize];
+        let c = v.map(|x| (x as i64) >> self.level);
+        let d = level.dims().map(|x| x as i64);
+        let half = (s as f64 - 1.0) / 2.0;
+        let centre = |b: i64, a: usize| (b * s) as f64 + half - v[a] as f64;
+        for sp in &phase.spans {
+            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
+                continue;
+            }
+            let row = level.row_start(y as usize, z as usize);
+            for x in (c[0] + sp.x0 as i64).max(0)..=(c[0] + sp.x1 as i64).min(d[0] - 1) {
+                let n = level.run(row, x as usize, x as usize);
+                if n > 0 {
+                    visit(Vec3::new(centre(x, 0), centre(y, 1), centre(z, 2)), n);
+                }
+            }
+        }
     }
 
     /// The solid fraction of the ball around voxel `v` (Eq. 3).
-    pub fn fraction(&self, grid: &Grid, v: [u16; 3]) -> f64 {
-        self.count(grid, v) as f64 / self.points as f64
+    pub fn fraction(&self, solid: &Solid, v: [u16; 3]) -> f64 {
+        let (inside, all) = self.count(solid, v);
+        inside as f64 / all as f64
     }
+}
+
+/// Set voxels of the bit grid in the runs around voxel `v`.
+fn count_bits(spans: &[Span], grid: &Grid, v: [u16; 3]) -> u64 {
+    let [nx, ny, nz] = grid.dims().map(|d| d as i64);
+    let c = v.map(|x| x as i64);
+    let words = grid.words();
+    let wpr = grid.words_per_row() as i64;
+    let mut total = 0u64;
+    for s in spans {
+        let (y, z) = (c[1] + s.dy as i64, c[2] + s.dz as i64);
+        if y < 0 || z < 0 || y >= ny || z >= nz {
+            continue;
+        }
+        let (lo, hi) = (
+            (c[0] + s.x0 as i64).max(0),
+            (c[0] + s.x1 as i64).min(nx - 1),
+        );
+        if lo <= hi {
+            total += count_span(
+                words,
+                ((z * ny + y) * wpr) as usize,
+                lo as usize,
+                hi as usize,
+            ) as u64;
+        }
+    }
+    total
 }
 
 /// Set bits `lo..=hi` of the row starting at word `row`.
@@ -131,7 +305,7 @@ fn count_span(words: &[u64], row: usize, lo: usize, hi: usize) -> u32 {
 /// The volume stage of the cascade: rejects a point once
 /// `sum_i |CF_T(r_i) - CF(v, r_i)|` passes the threshold (Eq. 4).
 pub struct VolumeDescriptor<'a> {
-    grid: &'a Grid,
+    solid: &'a Solid,
     points: &'a [[u16; 3]],
     balls: Vec<Ball>,
     radii: Vec<f64>,
@@ -140,33 +314,41 @@ pub struct VolumeDescriptor<'a> {
 }
 
 impl<'a> VolumeDescriptor<'a> {
-    /// A stage over the candidate voxels `points` of the scene `grid`, with
+    /// A stage over the candidate voxels `points` of the scene `solid`, with
     /// the template's fractions at the same radii (world units).
     pub fn new(
-        grid: &'a Grid,
+        solid: &'a Solid,
         points: &'a [[u16; 3]],
         radii: &[f64],
         template: Vec<f64>,
         threshold: f64,
+        backend: Backend,
     ) -> Self {
-        let voxel = grid.spec().voxel_size;
+        let balls = Self::balls(solid, radii, backend);
         VolumeDescriptor {
-            grid,
+            solid,
             points,
-            balls: radii.iter().map(|r| Ball::new(r / voxel)).collect(),
+            balls,
             radii: radii.to_vec(),
             template,
             threshold,
         }
     }
 
-    /// The descriptor of one voxel of any grid with this stage's voxel size:
-    /// what the template side computes.
-    pub fn describe(grid: &Grid, v: [u16; 3], radii: &[f64]) -> Vec<f64> {
-        let voxel = grid.spec().voxel_size;
+    fn balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
+        let voxel = solid.bits().spec().voxel_size;
         radii
             .iter()
-            .map(|r| Ball::new(r / voxel).fraction(grid, v))
+            .map(|r| Ball::new(r / voxel).bind(solid, backend))
+            .collect()
+    }
+
+    /// The descriptor of one voxel of any solid with this stage's voxel size:
+    /// what the template side computes.
+    pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Backend) -> Vec<f64> {
+        Self::balls(solid, radii, backend)
+            .iter()
+            .map(|b| b.fraction(solid, v))
             .collect()
     }
 }
@@ -195,7 +377,7 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
     }
 
     fn extend(&self, point: u32, layer: usize, sum: &mut f64) -> f64 {
-        let f = self.balls[layer].fraction(self.grid, self.points[point as usize]);
+        let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
         *sum += (f - self.template[layer]).abs();
         *sum
     }
@@ -204,30 +386,53 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exec::Backend;
     use crate::math::Vec3;
     use crate::mesh::shapes::{cuboid, uv_sphere};
-    use crate::voxel::{GridSpec, voxelize};
+    use crate::voxel::{GridSpec, fill_solid, skin, voxelize};
     use std::f64::consts::PI;
+
+    fn exact(r: f64) -> Ball {
+        Ball::at_level(r, 0)
+    }
 
     #[test]
     fn ball_holds_about_its_volume_in_lattice_points() {
         for r in [3.0, 7.5, 20.0, 41.3] {
-            let b = Ball::new(r);
+            let b = exact(r);
             let want = 4.0 / 3.0 * PI * r * r * r;
-            let err = (b.points() as f64 - want).abs() / want;
-            assert!(err < 3.0 / r, "r {r}: {} vs {want}", b.points());
+            let got = b.phases[0].voxels as f64;
+            assert!(
+                (got - want).abs() / want < 3.0 / r,
+                "r {r}: {got} vs {want}"
+            );
         }
-        assert_eq!(Ball::new(1.0).points(), 7);
-        assert_eq!(Ball::new(0.5).points(), 1);
+        assert_eq!(exact(1.0).phases[0].voxels, 7);
+        assert_eq!(exact(0.5).phases[0].voxels, 1);
+    }
+
+    fn brute(g: &Grid, v: [u16; 3], r: f64) -> u64 {
+        let e = r.ceil() as i64;
+        let mut n = 0;
+        for dz in -e..=e {
+            for dy in -e..=e {
+                for dx in -e..=e {
+                    if ((dx * dx + dy * dy + dz * dz) as f64) <= r * r
+                        && g.get(v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz)
+                    {
+                        n += 1;
+                    }
+                }
+            }
+        }
+        n
     }
 
     #[test]
-    fn counting_matches_brute_force_near_and_away_from_the_border() {
+    fn exact_counting_matches_brute_force_near_and_away_from_the_border() {
         let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
         let spec = GridSpec::for_scene(m.bounds(), 40).unwrap();
-        let g = voxelize(&m, &spec, Backend::Serial);
-        let ball = Ball::new(6.7);
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let ball = exact(6.7);
         for v in [
             [20u16, 20, 20],
             [3, 20, 20],
@@ -235,20 +440,41 @@ mod tests {
             [0, 0, 0],
             [41, 30, 5],
         ] {
-            let mut brute = 0;
-            let e = 7i64;
-            for dz in -e..=e {
-                for dy in -e..=e {
-                    for dx in -e..=e {
-                        if ((dx * dx + dy * dy + dz * dz) as f64) <= 6.7 * 6.7
-                            && g.get(v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz)
-                        {
-                            brute += 1;
-                        }
-                    }
-                }
+            assert_eq!(
+                ball.count(&solid, v).0,
+                brute(solid.bits(), v, 6.7),
+                "at {v:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn coarse_levels_agree_with_exact_counts() {
+        // A real, irregular model, at the radii the pipeline uses.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models/cow.obj");
+        let Ok(bytes) = std::fs::read(path) else {
+            return;
+        };
+        let m = crate::mesh::io::load(&bytes, None).unwrap();
+        let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Parallel));
+        let skin: Vec<[u16; 3]> = skin(solid.bits()).iter_ones().step_by(37).collect();
+        for r in [13.0, 26.0, 41.0, 70.0] {
+            let coarse = Ball::new(r).bind(&solid, Backend::Serial);
+            assert!(coarse.level() > 0);
+            let fine = exact(r);
+            let (mut worst, mut sum) = (0.0f64, 0.0);
+            for &v in &skin {
+                let d = (coarse.fraction(&solid, v) - fine.fraction(&solid, v)).abs();
+                worst = worst.max(d);
+                sum += d;
             }
-            assert_eq!(ball.count(&g, v), brute, "at {v:?}");
+            let mean = sum / skin.len() as f64;
+            assert!(
+                mean < 0.004 && worst < 0.02,
+                "r {r} (level {}): mean {mean} worst {worst}",
+                coarse.level()
+            );
         }
     }
 
@@ -257,26 +483,30 @@ mod tests {
         // The top face of a slab, far from its edges: half of every ball is solid.
         let slab = cuboid(Vec3::new(-4.0, -4.0, -1.0), Vec3::new(4.0, 4.0, 0.0));
         let spec = GridSpec::for_scene(slab.bounds(), 256).unwrap();
-        let g = voxelize(&slab, &spec, Backend::Serial);
-        let skin = crate::voxel::skin(&g);
+        let solid = Solid::new(voxelize(&slab, &spec, Backend::Serial));
         let top = spec.to_grid(Vec3::new(0.1, -0.2, 0.0));
-        let v = skin
+        let v = skin(solid.bits())
             .iter_ones()
             .filter(|s| s[0] as i64 == top.x as i64 && s[1] as i64 == top.y as i64)
             .max_by_key(|s| s[2])
             .unwrap();
         let radii = [0.1, 0.25, 0.5, 0.75, 0.9];
-        for (r, f) in radii.iter().zip(VolumeDescriptor::describe(&g, v, &radii)) {
-            // The centre voxel's own layer tips the balance by at most one
-            // disc of lattice points.
-            let disc =
-                PI * (r / spec.voxel_size).powi(2) / Ball::new(r / spec.voxel_size).points() as f64;
-            assert!((f - 0.5).abs() <= disc * 0.6 + 1e-9, "r {r}: {f}");
+        for (r, f) in radii.iter().zip(VolumeDescriptor::describe(
+            &solid,
+            v,
+            &radii,
+            Backend::Serial,
+        )) {
+            // The centre's own layer of voxels tips the balance by at most
+            // half a disc of the ball.
+            let rv = r / spec.voxel_size;
+            let disc = PI * rv * rv / (4.0 / 3.0 * PI * rv * rv * rv);
+            assert!((f - 0.5).abs() <= disc * 0.6, "r {r}: {f}");
         }
     }
 
     /// Volume of the intersection of balls of radius `big` and `r` whose
-    /// centres are `d` apart (0 < d < big + r, d > big - r).
+    /// centres are `d` apart (big - r < d < big + r).
     fn lens(big: f64, r: f64, d: f64) -> f64 {
         PI * (big + r - d).powi(2)
             * (d * d + 2.0 * d * r - 3.0 * r * r + 2.0 * d * big + 6.0 * r * big - 3.0 * big * big)
@@ -289,12 +519,16 @@ mod tests {
         let m = uv_sphere(Vec3::ZERO, big_r, 128, 256);
         let spec = GridSpec::for_scene(m.bounds(), 256).unwrap();
         // The centre-sampled interior is an unbiased picture of the solid.
-        let g = crate::voxel::fill_solid(&m, &spec, Backend::Serial);
+        let solid = Solid::new(fill_solid(&m, &spec, Backend::Serial));
         let centre = spec.to_grid(Vec3::ZERO);
         let c = [centre.x as u16, centre.y as u16, centre.z as u16];
-        assert_eq!(VolumeDescriptor::describe(&g, c, &[0.5])[0], 1.0);
+        assert_eq!(
+            VolumeDescriptor::describe(&solid, c, &[0.5], Backend::Serial)[0],
+            1.0
+        );
         // The topmost solid voxel above the centre, a point near the surface.
-        let top = g
+        let top = solid
+            .bits()
             .iter_ones()
             .filter(|s| s[0] == c[0] && s[1] == c[1])
             .max_by_key(|s| s[2])
@@ -302,9 +536,11 @@ mod tests {
         let d = spec.center(top).norm();
         for r in [0.1, 0.2, 0.4, 0.8] {
             let want = lens(big_r, r, d) / (4.0 / 3.0 * PI * r * r * r);
-            let got = VolumeDescriptor::describe(&g, top, &[r])[0];
-            // Lattice counting error shrinks with the radius in voxels.
-            let tol = 0.1 / (r / spec.voxel_size);
+            let got = VolumeDescriptor::describe(&solid, top, &[r], Backend::Serial)[0];
+            // Counting errors shrink with the radius in counting units
+            // (voxels, or blocks at coarse levels).
+            let ball = Ball::new(r / spec.voxel_size).bind(&solid, Backend::Serial);
+            let tol = 0.05 / (ball.radius() / f64::from(1u32 << ball.level()));
             assert!((got - want).abs() < tol, "r {r}: {got} vs {want}");
         }
     }

@@ -7,11 +7,13 @@
 
 mod fill;
 mod grid;
+mod pyramid;
 mod skin;
 mod surface;
 
 pub use fill::fill_solid;
 pub use grid::{Grid, GridSpec, PADDING};
+pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};
 pub use skin::skin;
 pub use surface::voxelize_surface;
 

@@ -5,7 +5,7 @@ use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::shapes::{cuboid, torus, uv_sphere};
-use crate::voxel::{GridSpec, skin, voxelize};
+use crate::voxel::{GridSpec, Solid, skin, voxelize};
 
 fn sample_fn(f: impl Fn(Vec3) -> f64) -> [f32; RINGS * SECTORS] {
     let mut out = [0.0; RINGS * SECTORS];
@@ -147,9 +147,9 @@ fn signatures_at(
     t: &SphericalTransform,
 ) -> Vec<Signature> {
     let spec = GridSpec::around(mesh.bounds(), voxel);
-    let g = voxelize(mesh, &spec, Backend::Serial);
+    let g = Solid::new(voxelize(mesh, &spec, Backend::Serial));
     let target = spec.to_grid(point);
-    let v = skin(&g)
+    let v = skin(g.bits())
         .iter_ones()
         .min_by(|a, b| {
             let da =
@@ -159,7 +159,7 @@ fn signatures_at(
             da.total_cmp(&db)
         })
         .unwrap();
-    HarmonicsDescriptor::describe(&g, v, radii, t)
+    HarmonicsDescriptor::describe(&g, v, radii, t, Backend::Serial)
 }
 
 fn distance(a: &[Signature], b: &[Signature]) -> f64 {
