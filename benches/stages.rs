@@ -1,1 +1,137 @@
-fn main() {}
+//! Per-stage timings on every shared scene: load, voxelize, template, every
+//! layer of every stage, group, total.
+//!
+//! `cargo bench --bench stages` runs each scene `FAST_REJECT_BENCH_RUNS`
+//! times (default 3) and prints the fastest run of each, so that figures
+//! from a busy machine stay comparable. `cargo bench --bench stages -- NAME`
+//! runs the scenes whose names contain NAME. The scenes come from
+//! `../shared/scenes`; the default parameters are used throughout.
+
+use std::path::Path;
+
+use fast_reject::clock::now_ms;
+use fast_reject::mesh::io::load;
+use fast_reject::scene::{Scene, SceneOptions};
+use fast_reject::search::{MatchOptions, MatchReport, search};
+use fast_reject::template::TemplateSource;
+
+/// (scene, true for a selection query)
+const SCENES: [(&str, bool); 7] = [
+    ("zoo-bunny", false),
+    ("remeshed-cow", false),
+    ("crowd-rocker", false),
+    ("select-cow-head", true),
+    ("fused-homer", false),
+    ("cluttered-bunny", false),
+    ("twisted-homer", false),
+];
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    if !root.exists() {
+        eprintln!("no shared scenes at {}: nothing to measure", root.display());
+        return;
+    }
+    let runs: usize = std::env::var("FAST_REJECT_BENCH_RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3)
+        .max(1);
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    println!(
+        "threads: {}, runs per scene: {runs} (fastest shown)\n",
+        rayon::current_num_threads()
+    );
+    let mut summary = Vec::new();
+    for (name, select) in SCENES {
+        if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
+            continue;
+        }
+        let dir = root.join(name);
+        let best = (0..runs)
+            .map(|_| run(&dir, select))
+            .min_by(|a, b| a.timings.total.total_cmp(&b.timings.total))
+            .unwrap();
+        print_scene(name, &best);
+        summary.push((name, best));
+    }
+    println!(
+        "| scene | skin voxels | load | voxelize | template | match | group | total (ms) | instances |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, r) in &summary {
+        let t = &r.timings;
+        println!(
+            "| {name} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
+            r.grid.skin_voxels,
+            t.load,
+            t.voxelize,
+            t.template,
+            t.match_,
+            t.group,
+            t.total,
+            r.instances.len()
+        );
+    }
+}
+
+fn run(dir: &Path, select: bool) -> MatchReport {
+    let start = now_ms();
+    let scene_mesh = load(&std::fs::read(dir.join("scene.glb")).unwrap(), None).unwrap();
+    let source = if select {
+        let truth: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("truth.json")).unwrap()).unwrap();
+        let s = &truth["select"];
+        let c: Vec<f64> = s["center"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        TemplateSource::Selection {
+            center: [c[0], c[1], c[2]],
+            radius: s["radius"].as_f64().unwrap(),
+        }
+    } else {
+        TemplateSource::Model(
+            load(&std::fs::read(dir.join("template.glb")).unwrap(), None).unwrap(),
+        )
+    };
+    let load_ms = now_ms() - start;
+    let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
+    let mut report = search(&scene, &source, &MatchOptions::DEFAULT, &mut ()).unwrap();
+    report.timings.load = load_ms;
+    report.timings.sum();
+    report
+}
+
+fn print_scene(name: &str, r: &MatchReport) {
+    println!(
+        "{name}: {} skin voxels, voxel {:.5}",
+        r.grid.skin_voxels, r.grid.voxel_size
+    );
+    println!(
+        "  {:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
+        "stage", "layer", "radius", "candidates", "survivors", "ms"
+    );
+    for s in &r.stages {
+        println!(
+            "  {:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
+            s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
+        );
+    }
+    let t = &r.timings;
+    println!(
+        "  load {:.1}, voxelize {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1} ms; {} instance(s)\n",
+        t.load,
+        t.voxelize,
+        t.template,
+        t.match_,
+        t.group,
+        t.total,
+        r.instances.len()
+    );
+}

@@ -124,6 +124,18 @@ impl Scene {
     }
 }
 
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("triangles", &self.mesh.triangles().len())
+            .field("resolution", &self.resolution)
+            .field("dims", &self.grid().dims())
+            .field("voxel_size", &self.voxel_size())
+            .field("skin_voxels", &self.skin.len())
+            .finish()
+    }
+}
+
 /// The set voxel of `points` whose centre is nearest to world point `p`.
 pub(crate) fn nearest_voxel(spec: &GridSpec, points: &[[u16; 3]], p: Vec3) -> Option<[u16; 3]> {
     points

@@ -214,13 +214,22 @@ pub fn search(
     let radii = template.radii();
     let (tsolid, tvoxel, backend) = (template.solid(scene), template.voxel(), options.backend);
     let transform = SphericalTransform::new();
-    let volume = VolumeDescriptor::new(
+    // The balls' tables are built once, then bound to each solid's layout.
+    let balls = VolumeDescriptor::unbound_balls(radii, scene.voxel_size(), backend);
+    let template_balls: Vec<_> = balls
+        .iter()
+        .map(|b| b.clone().bind(tsolid, backend))
+        .collect();
+    let volume = VolumeDescriptor::with_balls(
         scene.solid(),
         scene.skin(),
         radii,
-        VolumeDescriptor::describe(tsolid, tvoxel, radii, backend),
+        balls
+            .into_iter()
+            .map(|b| b.bind(scene.solid(), backend))
+            .collect(),
+        VolumeDescriptor::describe_with(tsolid, tvoxel, &template_balls),
         options.volume_threshold,
-        backend,
     );
     let harmonics = match options.descriptor {
         DescriptorKind::Volume => None,
@@ -250,6 +259,7 @@ pub fn search(
     let verifier = Verifier::new(
         tsolid,
         tvoxel,
+        template.center_offset(scene),
         template.radius() / scene.voxel_size(),
         backend,
     );

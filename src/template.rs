@@ -3,7 +3,9 @@
 //!
 //! - A separate model: c_T is the surface point nearest to the centre of the
 //!   model's minimal bounding sphere, r_k the distance from c_T to the
-//!   farthest model point (paper, sec. 5). The model is voxelized with the
+//!   farthest model point (paper, sec. 5). "Surface" is the boundary of the
+//!   model's solid: where shells overlap, a point of one shell buried in
+//!   another is not on it. The model is voxelized with the
 //!   scene's voxel size, so that radii and fractions mean the same on both
 //!   sides.
 //! - A selection sphere on the scene: its centre snapped to the nearest
@@ -71,13 +73,18 @@ impl Template {
                     .map(|&i| mesh.vertex(i))
                     .collect();
                 let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
-                let center = mesh.closest_point(sphere.center).point;
-                let radius = used.iter().map(|p| p.dist(center)).fold(0.0, f64::max);
                 let spec = GridSpec::around(mesh.bounds(), voxel_size);
                 spec.check_memory(GRIDS_IN_FLIGHT, max_grid_bytes, scene.resolution())?;
                 let grid = voxelize(mesh, &spec, backend);
                 let skin: Vec<[u16; 3]> = skin(&grid).iter_ones().collect();
-                let voxel = nearest_voxel(&spec, &skin, center).expect("a voxelized mesh has skin");
+                // The surface of the template is the boundary of its solid:
+                // with overlapping shells, the nearest point of a mesh may be
+                // buried inside another shell. So: the nearest skin voxel,
+                // then the mesh point nearest to it.
+                let voxel =
+                    nearest_voxel(&spec, &skin, sphere.center).expect("a voxelized mesh has skin");
+                let center = mesh.closest_point(spec.center(voxel)).point;
+                let radius = used.iter().map(|p| p.dist(center)).fold(0.0, f64::max);
                 (center, radius, Some(Solid::new(grid)), voxel)
             }
             &TemplateSource::Selection { center, radius } => {
@@ -146,5 +153,11 @@ impl Template {
     /// The voxel the template's descriptors are computed at.
     pub fn voxel(&self) -> [u16; 3] {
         self.voxel
+    }
+
+    /// c_T relative to the centre of [`Template::voxel`], in voxels.
+    pub fn center_offset(&self, scene: &'_ Scene) -> Vec3 {
+        let spec = self.solid(scene).bits().spec();
+        (self.center - spec.center(self.voxel)) * (1.0 / spec.voxel_size)
     }
 }

@@ -51,6 +51,8 @@ pub struct Verifier {
     empty: Vec<Vec3>,
     /// Share of the template's ball that is solid.
     solid_share: f64,
+    /// c_T relative to the anchor, in voxels.
+    target: Vec3,
 }
 
 /// The outcome of one check.
@@ -62,24 +64,36 @@ pub struct Placement {
     pub covered: f64,
     /// Rotation from template to scene (rows).
     pub rotation: [Vec3; 3],
-    /// Where the template's point lands, relative to the checked voxel (in
-    /// voxels): the placement's correction of the candidate's position.
+    /// Where the template's point c_T lands, relative to the checked voxel
+    /// (in voxels).
     pub offset: Vec3,
 }
 
 impl Verifier {
     /// Prepares the template whose descriptors are taken at voxel `anchor` of
     /// `solid`, over a ball of `radius` voxels.
-    pub fn new(solid: &Solid, anchor: [u16; 3], radius: f64, backend: Backend) -> Verifier {
+    /// `target` is the template's point c_T relative to the anchor's centre
+    /// (voxels): placements report where it lands.
+    pub fn new(
+        solid: &Solid,
+        anchor: [u16; 3],
+        target: Vec3,
+        radius: f64,
+        backend: Backend,
+    ) -> Verifier {
         let ball = Ball::at_level(radius, level_for_radius(radius, MOMENT_BLOCKS).max(1))
             .bind(solid, backend);
         let frame = local_frame(&ball, solid, anchor);
+        // A sub-lattice of the ball, fine enough for about SAMPLES points of
+        // each kind: sampling beats scanning millions of voxels.
+        let volume = 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+        let step = ((volume / (2 * SAMPLES) as f64).cbrt().floor() as i64).max(1);
         let (mut solid_pts, mut empty_pts) = (Vec::new(), Vec::new());
-        let e = radius.floor() as i64;
+        let e = radius.floor() as i64 / step * step;
         let bits = solid.bits();
-        for dz in -e..=e {
-            for dy in -e..=e {
-                for dx in -e..=e {
+        for dz in (-e..=e).step_by(step as usize) {
+            for dy in (-e..=e).step_by(step as usize) {
+                for dx in (-e..=e).step_by(step as usize) {
                     if ((dx * dx + dy * dy + dz * dz) as f64) > radius * radius {
                         continue;
                     }
@@ -104,6 +118,7 @@ impl Verifier {
             solid: spread(solid_pts),
             empty: spread(empty_pts),
             solid_share,
+            target,
         }
     }
 
@@ -161,7 +176,9 @@ impl Verifier {
             // placement that moves the candidate least.
             let better = match best {
                 None => true,
-                Some(b) if (score - b.score).abs() <= TIE => shift.norm() < b.offset.norm(),
+                Some(b) if (score - b.score).abs() <= TIE => {
+                    shift.norm() < (b.offset - self.rotate_target(&b.rotation)).norm()
+                }
                 Some(b) => score > b.score,
             };
             if better {
@@ -169,11 +186,24 @@ impl Verifier {
                     score,
                     covered,
                     rotation: rows,
-                    offset: shift,
+                    offset: shift
+                        + Vec3::new(
+                            rows[0].dot(self.target),
+                            rows[1].dot(self.target),
+                            rows[2].dot(self.target),
+                        ),
                 });
             }
         }
         best.expect("four candidates")
+    }
+
+    fn rotate_target(&self, rows: &[Vec3; 3]) -> Vec3 {
+        Vec3::new(
+            rows[0].dot(self.target),
+            rows[1].dot(self.target),
+            rows[2].dot(self.target),
+        )
     }
 
     /// Eigenvalues of the template's local second moments (descending): how

@@ -25,10 +25,13 @@ def normalized(m):
     return m
 
 def mug():
+    # The handle sits high, as on a real mug: a centred one would make the
+    # mug look the same turned upside down, and no method can tell a point
+    # from its image under a symmetry of the object.
     body = trimesh.creation.cylinder(radius=0.35, height=0.8, sections=48)
-    handle = trimesh.creation.torus(major_radius=0.22, minor_radius=0.06, major_sections=40, minor_sections=12)
+    handle = trimesh.creation.torus(major_radius=0.18, minor_radius=0.06, major_sections=40, minor_sections=12)
     handle.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
-    handle.apply_translation([0.38, 0, 0])
+    handle.apply_translation([0.38, 0, 0.14])
     return normalized(trimesh.util.concatenate([body, handle]))
 
 def others():

@@ -46,12 +46,16 @@ const RINGS: usize = 2 * BANDWIDTH;
 const HALF_RINGS: usize = BANDWIDTH;
 const SECTORS: usize = 2 * BANDWIDTH;
 const HALF_SECTORS: usize = BANDWIDTH;
+const _: () = assert!((RINGS * SECTORS) % CHUNK == 0);
 
 /// The per-degree energies of one sphere.
 pub type Signature = [f32; DEGREES];
 
 /// Orders with even and odd m: the phi + pi fold treats them apart.
 const HALF_ORDERS: usize = DEGREES / 2;
+
+/// Degrees of one parity for one order: at most DEGREES / 2.
+const PARITY_LANES: usize = DEGREES / 2;
 
 /// Precomputed tables for the transform (independent of radius and grid).
 ///
@@ -64,10 +68,12 @@ pub struct SphericalTransform {
     sin_even: [[f32; HALF_ORDERS]; HALF_SECTORS],
     cos_odd: [[f32; HALF_ORDERS]; HALF_SECTORS],
     sin_odd: [[f32; HALF_ORDERS]; HALF_SECTORS],
-    /// Quadrature weight x normalized Legendre value, `[m][j][l]` for the
-    /// northern rings j < RINGS / 2 (southern ones fold in by parity); zero
-    /// for l < m.
-    legendre: Vec<[[f32; DEGREES]; HALF_RINGS]>,
+    /// Quadrature weight x normalized Legendre value, for the northern rings
+    /// j < RINGS / 2 (southern ones fold in by parity): `legendre[m][p][j]`
+    /// holds the degrees l >= m with l + m of parity p, in order, padded
+    /// with zeros to a fixed width (P_l^m is even or odd in cos theta as
+    /// l + m is, so each degree needs only one of the two folds).
+    legendre: Vec<[[[f32; PARITY_LANES]; HALF_RINGS]; 2]>,
 }
 
 impl Default for SphericalTransform {
@@ -84,7 +90,7 @@ impl SphericalTransform {
             sin_even: [[0.0; HALF_ORDERS]; HALF_SECTORS],
             cos_odd: [[0.0; HALF_ORDERS]; HALF_SECTORS],
             sin_odd: [[0.0; HALF_ORDERS]; HALF_SECTORS],
-            legendre: vec![[[0.0; DEGREES]; HALF_RINGS]; DEGREES],
+            legendre: vec![[[[0.0; PARITY_LANES]; HALF_RINGS]; 2]; DEGREES],
         };
         for k in 0..HALF_SECTORS {
             for i in 0..HALF_ORDERS {
@@ -102,7 +108,7 @@ impl SphericalTransform {
             let w = weights[j] * (2.0 * PI / SECTORS as f64);
             for m in 0..DEGREES {
                 for l in m..DEGREES {
-                    t.legendre[m][j][l] = (w * p[l][m]) as f32;
+                    t.legendre[m][(l + m) % 2][j][(l - m) / 2] = (w * p[l][m]) as f32;
                 }
             }
         }
@@ -137,31 +143,29 @@ impl SphericalTransform {
                 im[j][2 * i + 1] = oi[i];
             }
         }
-        // Legendre step, folding theta and pi - theta: P_l^m is even or odd
-        // in cos theta as l + m is.
+        // Legendre step, folding theta and pi - theta: degrees with l + m
+        // even see the sum of the two rings, the others the difference.
         let mut energy = [0.0f64; DEGREES];
         for m in 0..DEGREES {
-            let (mut ar_e, mut ai_e) = ([0.0f32; DEGREES], [0.0f32; DEGREES]);
-            let (mut ar_o, mut ai_o) = ([0.0f32; DEGREES], [0.0f32; DEGREES]);
+            let (mut ar, mut ai) = ([[0.0f32; PARITY_LANES]; 2], [[0.0f32; PARITY_LANES]; 2]);
             for j in 0..HALF_RINGS {
                 let s = RINGS - 1 - j;
-                let (sr, si) = (re[j][m] + re[s][m], im[j][m] + im[s][m]);
-                let (dr, di) = (re[j][m] - re[s][m], im[j][m] - im[s][m]);
-                let table = &self.legendre[m][j];
-                for l in 0..DEGREES {
-                    ar_e[l] += table[l] * sr;
-                    ai_e[l] += table[l] * si;
-                    ar_o[l] += table[l] * dr;
-                    ai_o[l] += table[l] * di;
+                let folded = [
+                    (re[j][m] + re[s][m], im[j][m] + im[s][m]),
+                    (re[j][m] - re[s][m], im[j][m] - im[s][m]),
+                ];
+                for p in 0..2 {
+                    let table = &self.legendre[m][p][j];
+                    let (fr, fi) = folded[p];
+                    for i in 0..PARITY_LANES {
+                        ar[p][i] += table[i] * fr;
+                        ai[p][i] += table[i] * fi;
+                    }
                 }
             }
             for l in m..DEGREES {
-                let (a, b) = if (l + m) % 2 == 0 {
-                    (ar_e[l], ai_e[l])
-                } else {
-                    (ar_o[l], ai_o[l])
-                };
-                let e = (a as f64) * (a as f64) + (b as f64) * (b as f64);
+                let (p, i) = ((l + m) % 2, (l - m) / 2);
+                let e = (ar[p][i] as f64).powi(2) + (ai[p][i] as f64).powi(2);
                 energy[l] += if m == 0 { e } else { 2.0 * e };
             }
         }
@@ -224,18 +228,31 @@ fn normalized_legendre(x: f64) -> Vec<Vec<f64>> {
 /// its voxels.
 pub const BLOCKS_PER_RADIUS: f64 = 10.0;
 
-/// Where the samples of one sphere fall, bound to one solid's layout.
+/// Fractional bits of the fixed-point sample positions: block coordinates
+/// stay below 2^15, and 1/65536 of a block is far below any precision that
+/// matters, while integer floors and fractions vectorize where float-to-int
+/// conversions do not.
+const FIXED: u32 = 16;
+
+/// Samples are processed in chunks: positions and weights in one pass, the
+/// scattered reads in another, the interpolation in a third, so that the
+/// arithmetic passes vectorize.
+const CHUNK: usize = 64;
+
+/// Where the samples of one sphere fall, bound to one solid's layout (arrays
+/// of structures are split into one array per field, for vectorization).
 pub struct SphereSampler {
     radius: f64,
     level: u32,
-    /// Level 0: offset of the lower interpolation corner (voxels), its row
-    /// as a word offset, and the fractional position.
-    offset: Vec<[i32; 3]>,
+    /// Level 0: offset of the lower interpolation corner (voxels), the word
+    /// offset of its row, and the fractional position.
+    off: [Vec<i32>; 3],
     row: Vec<i64>,
-    frac: Vec<[f32; 3]>,
-    /// Level > 0: the sample directions times the radius, in blocks.
-    reach_blocks: Vec<[f32; 3]>,
-    reach: i64,
+    frac: [Vec<f32>; 3],
+    /// Level > 0: the sample directions times the radius, in blocks, fixed
+    /// point with [`FIXED`] fractional bits.
+    reach: [Vec<i32>; 3],
+    reach_voxels: i64,
     wpr: usize,
     plane: usize,
     dims: [usize; 3],
@@ -251,11 +268,11 @@ impl SphereSampler {
         let mut s = SphereSampler {
             radius,
             level,
-            offset: Vec::new(),
+            off: Default::default(),
             row: Vec::new(),
-            frac: Vec::new(),
-            reach_blocks: Vec::new(),
-            reach: radius.ceil() as i64 + 1,
+            frac: Default::default(),
+            reach: Default::default(),
+            reach_voxels: radius.ceil() as i64 + 1,
             wpr,
             plane: wpr * dims[1],
             dims,
@@ -267,19 +284,18 @@ impl SphereSampler {
                 let (sp, cp) = phi(k).sin_cos();
                 let d = [st * cp * radius, st * sp * radius, ct * radius];
                 if level > 0 {
-                    s.reach_blocks.push(d.map(|c| (c / scale) as f32));
+                    for a in 0..3 {
+                        s.reach[a].push((d[a] / scale * f64::from(1u32 << FIXED)).round() as i32);
+                    }
                     continue;
                 }
                 let b = d.map(|c| c.floor());
-                let o = [b[0] as i32, b[1] as i32, b[2] as i32];
+                for a in 0..3 {
+                    s.off[a].push(b[a] as i32);
+                    s.frac[a].push((d[a] - b[a]) as f32);
+                }
                 s.row
-                    .push((o[2] as i64 * dims[1] as i64 + o[1] as i64) * wpr as i64);
-                s.offset.push(o);
-                s.frac.push([
-                    (d[0] - b[0]) as f32,
-                    (d[1] - b[1]) as f32,
-                    (d[2] - b[2]) as f32,
-                ]);
+                    .push((b[2] as i64 * dims[1] as i64 + b[1] as i64) * wpr as i64);
             }
         }
         if level > 0 {
@@ -308,89 +324,146 @@ impl SphereSampler {
         debug_assert_eq!(grid.dims(), self.dims);
         let c = v.map(|x| x as i64);
         let words = grid.words();
+        // Little-endian words laid out as bytes: bit x of a row is bit x % 8
+        // of its byte x / 8, so two neighbours are one u16 read away.
+        let bytes: &[u8] = bytemuck::cast_slice(words);
         let base = (c[2] * self.dims[1] as i64 + c[1]) * self.wpr as i64;
         let (wpr, plane) = (self.wpr, self.plane);
+        let (row_bytes, plane_bytes) = (8 * wpr, 8 * plane);
         // The lower corner must leave room for the upper one.
         let limit = self.dims.map(|d| d as u64 - 1);
-        let whole =
-            (0..3).all(|a| c[a] - self.reach >= 0 && c[a] + self.reach < self.dims[a] as i64);
-        for (s, o) in out.iter_mut().enumerate() {
-            let d = self.offset[s];
-            let (x, y, z) = (c[0] + d[0] as i64, c[1] + d[1] as i64, c[2] + d[2] as i64);
-            let code = if whole
-                || ((x as u64) < limit[0] && (y as u64) < limit[1] && (z as u64) < limit[2])
-            {
-                let i = (base + self.row[s]) as usize + (x >> 6) as usize;
-                let b = (x & 63) as u32;
-                pair(words, i, b)
-                    | pair(words, i + wpr, b) << 2
-                    | pair(words, i + plane, b) << 4
-                    | pair(words, i + plane + wpr, b) << 6
-            } else {
-                corners_near_border(grid, x, y, z)
-            };
-            *o = match code {
-                0 => 0.0,
-                255 => 1.0,
-                _ => trilinear(code, self.frac[s]),
-            };
+        let whole = (0..3).all(|a| {
+            c[a] - self.reach_voxels >= 0 && c[a] + self.reach_voxels < self.dims[a] as i64
+        });
+        let mut code = [0u32; CHUNK];
+        for start in (0..out.len()).step_by(CHUNK) {
+            for i in 0..CHUNK {
+                let s = start + i;
+                let (x, y, z) = (
+                    c[0] + self.off[0][s] as i64,
+                    c[1] + self.off[1][s] as i64,
+                    c[2] + self.off[2][s] as i64,
+                );
+                code[i] = if whole
+                    || ((x as u64) < limit[0] && (y as u64) < limit[1] && (z as u64) < limit[2])
+                {
+                    if cfg!(target_endian = "little") {
+                        let b = 8 * (base + self.row[s]) as usize + (x >> 3) as usize;
+                        let shift = (x & 7) as u32;
+                        let cell = &bytes[b..b + plane_bytes + row_bytes + 2];
+                        let at = |o: usize| {
+                            ((u16::from_le_bytes([cell[o], cell[o + 1]]) >> shift) & 3) as u32
+                        };
+                        at(0)
+                            | at(row_bytes) << 2
+                            | at(plane_bytes) << 4
+                            | at(plane_bytes + row_bytes) << 6
+                    } else {
+                        let w = (base + self.row[s]) as usize + (x >> 6) as usize;
+                        let b = (x & 63) as u32;
+                        pair(words, w, b)
+                            | pair(words, w + wpr, b) << 2
+                            | pair(words, w + plane, b) << 4
+                            | pair(words, w + plane + wpr, b) << 6
+                    }
+                } else {
+                    corners_near_border(grid, x, y, z)
+                };
+            }
+            let (fx, fy, fz) = (
+                &self.frac[0][start..start + CHUNK],
+                &self.frac[1][start..start + CHUNK],
+                &self.frac[2][start..start + CHUNK],
+            );
+            for i in 0..CHUNK {
+                let corner = |k: u32| ((code[i] >> k) & 1) as f32;
+                out[start + i] = trilinear(
+                    [
+                        corner(0),
+                        corner(1),
+                        corner(2),
+                        corner(3),
+                        corner(4),
+                        corner(5),
+                        corner(6),
+                        corner(7),
+                    ],
+                    [fx[i], fy[i], fz[i]],
+                );
+            }
         }
     }
 
     /// Level > 0: trilinear interpolation of block occupancy.
     fn sample_blocks(&self, solid: &Solid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
         let level = solid.level(self.level, Backend::Serial);
-        let s = 1u32 << self.level;
+        let s = 1i64 << self.level;
         let dims = level.dims();
         let occ = level.occupancy();
         let (row, plane) = (dims[0], dims[0] * dims[1]);
-        // The voxel centre in block coordinates (block b's centre at b).
+        // The voxel centre in block coordinates (block b's centre at b), fixed point.
+        let one = 1i64 << FIXED;
         let centre = v.map(|c| {
-            (c >> self.level) as f32
-                + ((c as u32 & (s - 1)) as f32 - (s as f32 - 1.0) / 2.0) / s as f32
+            let c = c as i64;
+            ((c >> self.level) * one + ((c & (s - 1)) * 2 - (s - 1)) * one / (2 * s)) as i32
         });
-        let limit = dims.map(|d| d as i64 - 1);
-        const NORM: f32 = 1.0 / 255.0;
-        for (o, r) in out.iter_mut().zip(&self.reach_blocks) {
-            let q = [centre[0] + r[0], centre[1] + r[1], centre[2] + r[2]];
-            let fl = q.map(f32::floor);
-            let b = fl.map(|c| c as i64);
-            let f = [q[0] - fl[0], q[1] - fl[1], q[2] - fl[2]];
-            let mut c = [0.0f32; 8];
-            if (0..3).all(|a| b[a] >= 0 && b[a] < limit[a]) {
-                let i = (b[2] as usize * dims[1] + b[1] as usize) * row + b[0] as usize;
-                for (k, start) in [i, i + row, i + plane, i + plane + row]
-                    .into_iter()
-                    .enumerate()
-                {
-                    let pair = &occ[start..start + 2];
-                    c[2 * k] = pair[0] as f32;
-                    c[2 * k + 1] = pair[1] as f32;
+        let limit = dims.map(|d| d as u32 - 1);
+        let mask = (one - 1) as i32;
+        let scale = 1.0 / one as f32;
+        let mut at = [[0i32; CHUNK]; 3];
+        let mut frac = [[0.0f32; CHUNK]; 3];
+        // Occupancy of the lower and upper corner along x, as two bytes.
+        let mut pairs = [[0u16; CHUNK]; 4];
+        for start in (0..out.len()).step_by(CHUNK) {
+            for a in 0..3 {
+                let reach = &self.reach[a][start..start + CHUNK];
+                for i in 0..CHUNK {
+                    let q = centre[a] + reach[i];
+                    at[a][i] = q >> FIXED;
+                    frac[a][i] = (q & mask) as f32 * scale;
                 }
-            } else {
-                for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
-                    for dx in 0..2 {
-                        let (x, y, z) = (b[0] + dx, b[1] + dy, b[2] + dz);
-                        if x >= 0
-                            && y >= 0
-                            && z >= 0
-                            && x <= limit[0]
-                            && y <= limit[1]
-                            && z <= limit[2]
-                        {
-                            c[2 * k + dx as usize] =
-                                occ[(z as usize * dims[1] + y as usize) * row + x as usize] as f32;
+            }
+            for i in 0..CHUNK {
+                let (x, y, z) = (at[0][i], at[1][i], at[2][i]);
+                // Negative coordinates wrap to large unsigned ones and fail too.
+                if (x as u32) < limit[0] && (y as u32) < limit[1] && (z as u32) < limit[2] {
+                    let b = (z as usize * dims[1] + y as usize) * row + x as usize;
+                    // One bounds check for the whole 2 x 2 x 2 cell.
+                    let cell = &occ[b..b + plane + row + 2];
+                    pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
+                    pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
+                    pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
+                    pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
+                } else {
+                    for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+                        let mut pair = 0u16;
+                        for dx in 0..2 {
+                            let (x, y, z) = (x + dx, y + dy, z + dz);
+                            let inside = x >= 0
+                                && y >= 0
+                                && z >= 0
+                                && x as u32 <= limit[0]
+                                && y as u32 <= limit[1]
+                                && z as u32 <= limit[2];
+                            if inside {
+                                pair |= (occ[(z as usize * dims[1] + y as usize) * row + x as usize]
+                                    as u16)
+                                    << (8 * dx);
+                            }
                         }
+                        pairs[k][i] = pair;
                     }
                 }
             }
-            let x00 = c[0] + (c[1] - c[0]) * f[0];
-            let x10 = c[2] + (c[3] - c[2]) * f[0];
-            let x01 = c[4] + (c[5] - c[4]) * f[0];
-            let x11 = c[6] + (c[7] - c[6]) * f[0];
-            let y0 = x00 + (x10 - x00) * f[1];
-            let y1 = x01 + (x11 - x01) * f[1];
-            *o = (y0 + (y1 - y0) * f[2]) * NORM;
+            const NORM: f32 = 1.0 / 255.0;
+            for i in 0..CHUNK {
+                let c =
+                    [0, 1, 2, 3].map(|k| [(pairs[k][i] & 0xff) as f32, (pairs[k][i] >> 8) as f32]);
+                let c = [
+                    c[0][0], c[0][1], c[1][0], c[1][1], c[2][0], c[2][1], c[3][0], c[3][1],
+                ];
+                out[start + i] = trilinear(c, [frac[0][i], frac[1][i], frac[2][i]]) * NORM;
+            }
         }
     }
 }
@@ -417,22 +490,17 @@ fn pair(words: &[u64], i: usize, b: u32) -> u32 {
     ((v >> b) & 3) as u32
 }
 
-/// Interpolates the eight corner bits of `code` (pairs along x for rows
-/// (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1)).
-#[inline]
-fn trilinear(code: u32, f: [f32; 3]) -> f32 {
-    let along_x = |pair: u32| {
-        let a = (pair & 1) as f32;
-        let b = ((pair >> 1) & 1) as f32;
-        a + (b - a) * f[0]
-    };
-    let v00 = along_x(code & 3);
-    let v10 = along_x((code >> 2) & 3);
-    let v01 = along_x((code >> 4) & 3);
-    let v11 = along_x((code >> 6) & 3);
-    let v0 = v00 + (v10 - v00) * f[1];
-    let v1 = v01 + (v11 - v01) * f[1];
-    v0 + (v1 - v0) * f[2]
+/// Trilinear interpolation of corners ordered (x, x + 1) along x for the
+/// rows (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1).
+#[inline(always)]
+fn trilinear(c: [f32; 8], f: [f32; 3]) -> f32 {
+    let x00 = c[0] + (c[1] - c[0]) * f[0];
+    let x10 = c[2] + (c[3] - c[2]) * f[0];
+    let x01 = c[4] + (c[5] - c[4]) * f[0];
+    let x11 = c[6] + (c[7] - c[6]) * f[0];
+    let y0 = x00 + (x10 - x00) * f[1];
+    let y1 = x01 + (x11 - x01) * f[1];
+    y0 + (y1 - y0) * f[2]
 }
 
 /// The signature of one voxel on one sphere (`sampler` made for `solid`).

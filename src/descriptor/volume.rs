@@ -59,20 +59,25 @@ pub struct Ball {
 impl Ball {
     /// The ball of `radius` voxels, read at the level [`BLOCKS_PER_RADIUS`] picks.
     pub fn new(radius: f64) -> Ball {
-        Ball::at_level(radius, level_for_radius(radius, BLOCKS_PER_RADIUS))
+        Ball::build(
+            radius,
+            level_for_radius(radius, BLOCKS_PER_RADIUS),
+            Backend::Serial,
+        )
     }
 
     /// The ball of `radius` voxels read at pyramid level `level`.
     pub fn at_level(radius: f64, level: u32) -> Ball {
+        Ball::build(radius, level, Backend::Serial)
+    }
+
+    /// Like [`Ball::at_level`], computing the phases with `backend`.
+    pub fn build(radius: f64, level: u32, backend: Backend) -> Ball {
         let s = 1i64 << level;
-        let mut phases = Vec::with_capacity((s * s * s) as usize);
-        for pz in 0..s {
-            for py in 0..s {
-                for px in 0..s {
-                    phases.push(Ball::phase(radius, s, [px, py, pz]));
-                }
-            }
-        }
+        let phases = backend.map((s * s * s) as usize, |i| {
+            let i = i as i64;
+            Ball::phase(radius, s, [i % s, (i / s) % s, i / (s * s)])
+        });
         Ball {
             radius,
             level,
@@ -335,21 +340,53 @@ impl<'a> VolumeDescriptor<'a> {
         }
     }
 
-    fn balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
-        let voxel = solid.bits().spec().voxel_size;
+    /// A stage from balls already bound to `solid` (one per radius).
+    pub fn with_balls(
+        solid: &'a Solid,
+        points: &'a [[u16; 3]],
+        radii: &[f64],
+        balls: Vec<Ball>,
+        template: Vec<f64>,
+        threshold: f64,
+    ) -> Self {
+        VolumeDescriptor {
+            solid,
+            points,
+            balls,
+            radii: radii.to_vec(),
+            template,
+            threshold,
+        }
+    }
+
+    /// The unbound balls for `radii` (world units) on voxels of `voxel_size`.
+    pub fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Backend) -> Vec<Ball> {
         radii
             .iter()
-            .map(|r| Ball::new(r / voxel).bind(solid, backend))
+            .map(|r| {
+                let rv = r / voxel_size;
+                Ball::build(rv, level_for_radius(rv, BLOCKS_PER_RADIUS), backend)
+            })
+            .collect()
+    }
+
+    fn balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
+        let voxel = solid.bits().spec().voxel_size;
+        Self::unbound_balls(radii, voxel, backend)
+            .into_iter()
+            .map(|b| b.bind(solid, backend))
             .collect()
     }
 
     /// The descriptor of one voxel of any solid with this stage's voxel size:
     /// what the template side computes.
     pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Backend) -> Vec<f64> {
-        Self::balls(solid, radii, backend)
-            .iter()
-            .map(|b| b.fraction(solid, v))
-            .collect()
+        Self::describe_with(solid, v, &Self::balls(solid, radii, backend))
+    }
+
+    /// The descriptor of voxel `v` with balls bound to `solid`.
+    pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball]) -> Vec<f64> {
+        balls.iter().map(|b| b.fraction(solid, v)).collect()
     }
 }
 

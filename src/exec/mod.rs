@@ -78,6 +78,27 @@ impl Backend {
         items.into_iter().filter_map(f).collect()
     }
 
+    /// `f(row, chunk)` for consecutive chunks of `row_len` items of `data`
+    /// (the last may be shorter), writing in place.
+    pub fn for_each_row<T, F>(self, data: &mut [T], row_len: usize, f: F)
+    where
+        T: Send,
+        F: Fn(usize, &mut [T]) + Sync + Send,
+    {
+        let row_len = row_len.max(1);
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            data.par_chunks_mut(row_len)
+                .enumerate()
+                .for_each(|(i, c)| f(i, c));
+            return;
+        }
+        data.chunks_mut(row_len)
+            .enumerate()
+            .for_each(|(i, c)| f(i, c));
+    }
+
     /// `f(i)` for every `i` in `0..len`, in order.
     pub fn map<R, F>(self, len: usize, f: F) -> Vec<R>
     where

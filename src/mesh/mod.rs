@@ -16,7 +16,7 @@ mod weld;
 
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
-pub use weld::{FxHasher, weld_vertices};
+pub use weld::weld_vertices;
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3};
@@ -26,7 +26,26 @@ use crate::math::{Aabb, Vec3};
 pub struct TriMesh {
     positions: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
+    parts: Vec<Part>,
     degenerate_dropped: usize,
+}
+
+/// A run of vertices and triangles that came from one source mesh: a glTF
+/// mesh placed by one node. Parts with the same `source` are instances of
+/// one mesh, which lets connectivity be computed once per mesh rather than
+/// once per instance; a single-mesh file is one part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// Index of the part's first vertex.
+    pub first_vertex: u32,
+    /// Number of its vertices.
+    pub vertex_count: u32,
+    /// Index of its first triangle.
+    pub first_triangle: u32,
+    /// Number of its triangles.
+    pub triangle_count: u32,
+    /// Which source mesh it is an instance of.
+    pub source: u32,
 }
 
 impl TriMesh {
@@ -36,6 +55,31 @@ impl TriMesh {
     /// triangle with area is left; drops triangles with repeated corners or
     /// zero area.
     pub fn new(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> Result<TriMesh> {
+        let part = Part {
+            first_vertex: 0,
+            vertex_count: positions.len() as u32,
+            first_triangle: 0,
+            triangle_count: triangles.len() as u32,
+            source: 0,
+        };
+        TriMesh::with_parts(positions, triangles, vec![part])
+    }
+
+    /// Like [`TriMesh::new`], for a mesh assembled from parts (which must
+    /// cover the triangles in order; a part's triangles must use its own
+    /// vertices). Dropped triangles shrink their part.
+    pub fn with_parts(
+        positions: Vec<[f32; 3]>,
+        triangles: Vec<[u32; 3]>,
+        mut parts: Vec<Part>,
+    ) -> Result<TriMesh> {
+        let covered: u64 = parts.iter().map(|p| p.triangle_count as u64).sum();
+        if covered != triangles.len() as u64 {
+            return Err(Error::invalid_option(
+                "parts",
+                "the parts do not cover the triangles",
+            ));
+        }
         for (vertex, p) in positions.iter().enumerate() {
             if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
                 return Err(Error::NonFiniteCoordinate { vertex, value });
@@ -44,30 +88,52 @@ impl TriMesh {
         let n = positions.len();
         let mut kept = Vec::with_capacity(triangles.len());
         let mut degenerate_dropped = 0;
-        for (triangle, t) in triangles.into_iter().enumerate() {
-            if let Some(&vertex) = t.iter().find(|&&i| i as usize >= n) {
-                return Err(Error::IndexOutOfRange {
-                    triangle,
-                    vertex: vertex as u64,
-                    vertices: n,
-                });
+        let mut next = 0usize;
+        for part in &mut parts {
+            let range = next..next + part.triangle_count as usize;
+            next = range.end;
+            part.first_triangle = kept.len() as u32;
+            for triangle in range {
+                let t = triangles[triangle];
+                if let Some(&vertex) = t.iter().find(|&&i| i as usize >= n) {
+                    return Err(Error::IndexOutOfRange {
+                        triangle,
+                        vertex: vertex as u64,
+                        vertices: n,
+                    });
+                }
+                let own = part.first_vertex..part.first_vertex.saturating_add(part.vertex_count);
+                if t.iter().any(|i| !own.contains(i)) {
+                    return Err(Error::invalid_option(
+                        "parts",
+                        format!("triangle {triangle} uses vertices outside its part"),
+                    ));
+                }
+                if is_degenerate(&positions, t) {
+                    degenerate_dropped += 1;
+                } else {
+                    kept.push(t);
+                }
             }
-            if is_degenerate(&positions, t) {
-                degenerate_dropped += 1;
-            } else {
-                kept.push(t);
-            }
+            part.triangle_count = kept.len() as u32 - part.first_triangle;
         }
         if kept.is_empty() {
             return Err(Error::EmptyMesh {
                 degenerate: degenerate_dropped,
             });
         }
+        parts.retain(|p| p.triangle_count > 0);
         Ok(TriMesh {
             positions,
             triangles: kept,
+            parts,
             degenerate_dropped,
         })
+    }
+
+    /// The parts the mesh was assembled from.
+    pub fn parts(&self) -> &[Part] {
+        &self.parts
     }
 
     /// Vertex positions.
@@ -136,7 +202,7 @@ impl TriMesh {
                 [q.x as f32, q.y as f32, q.z as f32]
             })
             .collect();
-        TriMesh::new(positions, self.triangles.clone())
+        TriMesh::with_parts(positions, self.triangles.clone(), self.parts.clone())
     }
 
     /// The mesh with only the triangles for which `keep(index)` holds (cutting
@@ -152,6 +218,14 @@ impl TriMesh {
     /// Appends another mesh (used to merge the primitives of a scene).
     pub fn append(&mut self, other: &TriMesh) {
         let base = self.positions.len() as u32;
+        let first_triangle = self.triangles.len() as u32;
+        let sources = self.parts.iter().map(|p| p.source + 1).max().unwrap_or(0);
+        self.parts.extend(other.parts.iter().map(|p| Part {
+            first_vertex: p.first_vertex + base,
+            first_triangle: p.first_triangle + first_triangle,
+            source: p.source + sources,
+            ..*p
+        }));
         self.positions.extend_from_slice(&other.positions);
         self.triangles.extend(
             other
@@ -189,6 +263,33 @@ mod tests {
         let m = TriMesh::new(p, vec![[0, 1, 2], [0, 1, 1], [0, 1, 3]]).unwrap();
         assert_eq!(m.triangles(), &[[0, 1, 2]]);
         assert_eq!(m.degenerate_dropped(), 2);
+    }
+
+    #[test]
+    fn parts_shrink_with_their_dropped_triangles() {
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [2.0, 0.0, 0.0],
+        ];
+        let part = |first, count, source| Part {
+            first_vertex: 0,
+            vertex_count: 4,
+            first_triangle: first,
+            triangle_count: count,
+            source,
+        };
+        let m = TriMesh::with_parts(
+            p.clone(),
+            vec![[0, 1, 2], [0, 1, 1], [0, 1, 3], [0, 2, 1]],
+            vec![part(0, 2, 0), part(2, 2, 1)],
+        )
+        .unwrap();
+        assert_eq!(m.triangles().len(), 2);
+        assert_eq!(m.parts(), &[part(0, 1, 0), part(1, 1, 1)]);
+        // Parts that do not cover the triangles are refused.
+        assert!(TriMesh::with_parts(p, vec![[0, 1, 2]], vec![part(0, 2, 0)]).is_err());
     }
 
     #[test]

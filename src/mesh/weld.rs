@@ -26,7 +26,7 @@ pub fn weld_vertices(positions: &[[f32; 3]]) -> (Vec<u32>, usize) {
 /// The multiply-rotate hash of rustc (FxHash): fast on small integer keys,
 /// which is all the pipeline hashes.
 #[derive(Default)]
-pub struct FxHasher(u64);
+struct FxHasher(u64);
 
 impl Hasher for FxHasher {
     fn write(&mut self, bytes: &[u8]) {

@@ -27,9 +27,7 @@
 use super::grid::{AtomicGrid, Grid, GridSpec};
 use crate::exec::Backend;
 use crate::math::{Vec3, ceil, floor};
-use crate::mesh::{FxHasher, TriMesh, weld_vertices};
-use std::collections::HashMap;
-use std::hash::BuildHasherDefault;
+use crate::mesh::{TriMesh, weld_vertices};
 
 /// The voxels whose centre lies inside the mesh's solid (the surface itself
 /// is not included; see [`super::voxelize`]).
@@ -38,22 +36,86 @@ pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
     let out = AtomicGrid::new(*spec);
     backend.for_each_range(shells.len(), 1, |range| {
         for s in range {
-            fill_shell(mesh, &shells[s], spec, &out);
+            fill_shell(mesh, &shells[s], spec, &out, backend);
         }
     });
     out.into_grid()
 }
 
-/// Triangle indices of each shell, in order of first triangle.
+/// Triangle indices of each shell.
 ///
 /// Triangles belong to one shell when they share an edge (after welding, so
 /// that texture seams do not cut a surface apart). Sharing a single vertex is
 /// not enough: two objects that merely touch, or interpenetrate with a few
 /// coincident vertices, must be filled separately and united, never merged
-/// into one parity count.
+/// into one parity count. Shells never cross parts (separately placed
+/// meshes are separate objects), and instances of one mesh share its
+/// connectivity, computed once.
 pub(crate) fn shells(mesh: &TriMesh) -> Vec<Vec<u32>> {
-    let (ids, _) = weld_vertices(mesh.positions());
-    let tris = mesh.triangles();
+    let mut by_source: Vec<KnownSource> = Vec::new();
+    let mut shells = Vec::new();
+    for part in mesh.parts() {
+        let first = part.first_triangle as usize;
+        let tris = &mesh.triangles()[first..first + part.triangle_count as usize];
+        let local_tris: Vec<[u32; 3]> = tris
+            .iter()
+            .map(|t| t.map(|i| i - part.first_vertex))
+            .collect();
+        // An earlier instance of the same mesh with the same triangles (a
+        // degenerate triangle dropped in one instance only would differ).
+        let known = by_source
+            .iter()
+            .find(|(source, seen, _)| *source == part.source && *seen == local_tris);
+        let local_shells = match known {
+            Some((_, _, found)) => found.clone(),
+            None => {
+                let vertices =
+                    part.first_vertex as usize..(part.first_vertex + part.vertex_count) as usize;
+                let found = part_shells(&mesh.positions()[vertices], &local_tris);
+                by_source.push((part.source, local_tris, found.clone()));
+                found
+            }
+        };
+        shells.extend(
+            local_shells
+                .into_iter()
+                .map(|s| s.into_iter().map(|t| t + first as u32).collect()),
+        );
+    }
+    shells
+}
+
+/// A mesh whose shells are known: source id, local triangles, local shells.
+type KnownSource = (u32, Vec<[u32; 3]>, Vec<Vec<u32>>);
+
+/// Shells of one part, as triangle indices within it.
+fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Vec<u32>> {
+    let (ids, n) = weld_vertices(positions);
+    let tris: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|i| ids[i as usize]))
+        .collect();
+    // Triangles around each welded vertex (counting sort, no hashing).
+    let mut start = vec![0u32; n + 1];
+    for t in &tris {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    // Each incident triangle with its two other corners, so that finding the
+    // triangle across an edge reads one vertex's list and nothing else.
+    let mut fill = start.clone();
+    let mut around = vec![(0u32, 0u32, 0u32); tris.len() * 3];
+    for (ti, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let v = t[k] as usize;
+            around[fill[v] as usize] = (ti as u32, t[(k + 1) % 3], t[(k + 2) % 3]);
+            fill[v] += 1;
+        }
+    }
     let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -63,16 +125,17 @@ pub(crate) fn shells(mesh: &TriMesh) -> Vec<Vec<u32>> {
         }
         x
     }
-    let mut first_with_edge: HashMap<u64, u32, BuildHasherDefault<FxHasher>> =
-        HashMap::with_capacity_and_hasher(tris.len() * 3 / 2, Default::default());
-    for (ti, t) in tris.iter().enumerate() {
-        let v = t.map(|i| ids[i as usize] as u64);
-        for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
-            let key = a.min(b) << 32 | a.max(b);
-            let other = *first_with_edge.entry(key).or_insert(ti as u32);
-            let (ra, rb) = (find(&mut parent, ti as u32), find(&mut parent, other));
-            if ra != rb {
-                parent[ra.max(rb) as usize] = ra.min(rb);
+    for v in 0..n {
+        let list = &around[start[v] as usize..start[v + 1] as usize];
+        // Two triangles around v share an edge when they share another corner.
+        for (i, &(t1, a1, b1)) in list.iter().enumerate() {
+            for &(t2, a2, b2) in &list[i + 1..] {
+                if a1 == a2 || a1 == b2 || b1 == a2 || b1 == b2 {
+                    let (r1, r2) = (find(&mut parent, t1), find(&mut parent, t2));
+                    if r1 != r2 {
+                        parent[r1.max(r2) as usize] = r1.min(r2);
+                    }
+                }
             }
         }
     }
@@ -116,7 +179,7 @@ impl Block {
     }
 }
 
-fn fill_shell(mesh: &TriMesh, tris: &[u32], spec: &GridSpec, out: &AtomicGrid) {
+fn fill_shell(mesh: &TriMesh, tris: &[u32], spec: &GridSpec, out: &AtomicGrid, backend: Backend) {
     let corners: Vec<[Vec3; 3]> = tris
         .iter()
         .map(|&t| mesh.corners(t as usize).map(|p| spec.to_grid(p)))
@@ -138,16 +201,29 @@ fn fill_shell(mesh: &TriMesh, tris: &[u32], spec: &GridSpec, out: &AtomicGrid) {
         nz: hi[2] - lo[2] + 1,
     };
     // parity[a]: toggles, then (after the prefix XOR) parity along axis a.
-    let mut parity = [0; 3].map(|_| vec![0u64; block.len()]);
-    for tri in &corners {
-        let [px, py, pz] = &mut parity;
-        for_each_crossing::<0>(tri, &block, |v| block.toggle(px, v));
-        for_each_crossing::<1>(tri, &block, |v| block.toggle(py, v));
-        for_each_crossing::<2>(tri, &block, |v| block.toggle(pz, v));
-    }
-    prefix_xor_x(&mut parity[0], &block);
-    prefix_xor_rows(&mut parity[1], block.words, block.ny, block.nz, 1);
-    prefix_xor_rows(&mut parity[2], block.words, block.ny, block.nz, block.ny);
+    // The three axes are independent: a large shell runs them side by side.
+    let mut parity = vec![Vec::new(); 3];
+    let axes = if tris.len() >= 4096 {
+        backend
+    } else {
+        Backend::Serial
+    };
+    axes.for_each_row(&mut parity, 1, |axis, slot| {
+        let bits = &mut slot[0];
+        *bits = vec![0u64; block.len()];
+        for tri in &corners {
+            match axis {
+                0 => for_each_crossing::<0>(tri, &block, |v| block.toggle(bits, v)),
+                1 => for_each_crossing::<1>(tri, &block, |v| block.toggle(bits, v)),
+                _ => for_each_crossing::<2>(tri, &block, |v| block.toggle(bits, v)),
+            }
+        }
+        match axis {
+            0 => prefix_xor_x(bits, &block),
+            1 => prefix_xor_rows(bits, block.words, block.ny, block.nz, 1),
+            _ => prefix_xor_rows(bits, block.words, block.ny, block.nz, block.ny),
+        }
+    });
     vote(&parity, &block, out);
 }
 
@@ -271,7 +347,7 @@ fn prefix_xor_rows(bits: &mut [u64], words: usize, ny: usize, nz: usize, step: u
 
 /// Combines the three parities with their columns' validity and ORs the
 /// solid voxels into `out`.
-fn vote(parity: &[Vec<u64>; 3], b: &Block, out: &AtomicGrid) {
+fn vote(parity: &[Vec<u64>], b: &Block, out: &AtomicGrid) {
     let w = b.words;
     let last_x_word = (b.hi[0] >> 6) - b.first_word;
     let last_x_bit = b.hi[0] & 63;

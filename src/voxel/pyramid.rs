@@ -92,76 +92,87 @@ impl CountLevel {
         self.run(r, x, x)
     }
 
-    fn from_counts(level: u32, dims: [usize; 3], counts: &[u32], backend: Backend) -> CountLevel {
+    /// A level whose block counts `count(row, out)` writes row by row.
+    fn build(
+        level: u32,
+        dims: [usize; 3],
+        backend: Backend,
+        count: impl Fn(usize, &mut [u32]) + Sync + Send,
+    ) -> CountLevel {
         let stride = dims[0] + 1;
-        let rows = dims[1] * dims[2];
-        let full = f64::from(1u32 << (3 * level));
-        let mut occupancy: Vec<u8> = counts
-            .iter()
-            .map(|&c| (c as f64 * 255.0 / full).round() as u8)
-            .collect();
-        occupancy.push(0);
-        let prefix: Vec<Vec<u32>> = backend.map(rows, |r| {
-            let mut out = Vec::with_capacity(stride);
-            let mut acc = 0u32;
-            out.push(0);
-            for &c in &counts[r * dims[0]..(r + 1) * dims[0]] {
-                acc += c;
-                out.push(acc);
+        let mut prefix = vec![0u32; stride * dims[1] * dims[2]];
+        // Counts go to entries 1.., then become running sums in place.
+        backend.for_each_row(&mut prefix, stride, |r, row| {
+            count(r, &mut row[1..]);
+            for x in 1..row.len() {
+                row[x] += row[x - 1];
             }
-            out
         });
+        let (shift, half) = (3 * level, 1u32 << (3 * level - 1));
+        let mut occupancy = vec![0u8; dims[0] * dims[1] * dims[2] + 1];
+        backend.for_each_row(
+            &mut occupancy[..dims[0] * dims[1] * dims[2]],
+            dims[0],
+            |r, out| {
+                let sums = &prefix[r * stride..(r + 1) * stride];
+                for x in 0..out.len() {
+                    out[x] = (((sums[x + 1] - sums[x]) * 255 + half) >> shift) as u8;
+                }
+            },
+        );
         CountLevel {
             level,
             dims,
             stride,
-            prefix: prefix.concat(),
+            prefix,
             occupancy,
         }
     }
 
-    /// Level 1 from the bit grid.
+    /// Level 1 from the bit grid: the four fine rows of a block row are
+    /// summed as bit-pair counts in 4-bit fields, 16 blocks per operation.
     fn first(grid: &Grid, backend: Backend) -> CountLevel {
         let [nx, ny, nz] = grid.dims();
         let dims = [nx.div_ceil(2), ny.div_ceil(2), nz.div_ceil(2)];
         let wpr = grid.words_per_row();
         let words = grid.words();
-        let rows: Vec<Vec<u32>> = backend.map(dims[1] * dims[2], |r| {
+        CountLevel::build(1, dims, backend, |r, out| {
             let (y, z) = (r % dims[1], r / dims[1]);
-            let mut out = vec![0u32; dims[0]];
-            for (dy, dz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (yy, zz) = (2 * y + dy, 2 * z + dz);
-                if yy >= ny || zz >= nz {
+            let rows: Vec<usize> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .into_iter()
+                .filter(|&(dy, dz)| 2 * y + dy < ny && 2 * z + dz < nz)
+                .map(|(dy, dz)| grid.row_start(2 * y + dy, 2 * z + dz))
+                .collect();
+            for k in 0..wpr {
+                let (mut even, mut odd) = (0u64, 0u64);
+                for &start in &rows {
+                    let w = words[start + k];
+                    let pairs = (w & 0x5555_5555_5555_5555) + ((w >> 1) & 0x5555_5555_5555_5555);
+                    even += pairs & 0x3333_3333_3333_3333;
+                    odd += (pairs >> 2) & 0x3333_3333_3333_3333;
+                }
+                if even | odd == 0 {
                     continue;
                 }
-                let start = grid.row_start(yy, zz);
-                for k in 0..wpr {
-                    let w = words[start + k];
-                    if w == 0 {
-                        continue;
+                for j in 0..16 {
+                    let x = k * 32 + 2 * j;
+                    if x < out.len() {
+                        out[x] = ((even >> (4 * j)) & 15) as u32;
                     }
-                    // Counts of bit pairs, 2 bits each.
-                    let pairs = (w & 0x5555_5555_5555_5555) + ((w >> 1) & 0x5555_5555_5555_5555);
-                    for i in 0..32 {
-                        let x = k * 32 + i;
-                        if x < dims[0] {
-                            out[x] += ((pairs >> (2 * i)) & 3) as u32;
-                        }
+                    if x + 1 < out.len() {
+                        out[x + 1] = ((odd >> (4 * j)) & 15) as u32;
                     }
                 }
             }
-            out
-        });
-        CountLevel::from_counts(1, dims, &rows.concat(), backend)
+        })
     }
 
     /// Level l + 1 from level l.
     fn next(&self, backend: Backend) -> CountLevel {
         let d = self.dims;
         let dims = [d[0].div_ceil(2), d[1].div_ceil(2), d[2].div_ceil(2)];
-        let rows: Vec<Vec<u32>> = backend.map(dims[1] * dims[2], |r| {
+        CountLevel::build(self.level + 1, dims, backend, |r, out| {
             let (y, z) = (r % dims[1], r / dims[1]);
-            let mut out = vec![0u32; dims[0]];
             for (dy, dz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                 let (yy, zz) = (2 * y + dy, 2 * z + dz);
                 if yy >= d[1] || zz >= d[2] {
@@ -172,9 +183,7 @@ impl CountLevel {
                     *o += self.run(row, 2 * x, (2 * x + 1).min(d[0] - 1));
                 }
             }
-            out
-        });
-        CountLevel::from_counts(self.level + 1, dims, &rows.concat(), backend)
+        })
     }
 }
 

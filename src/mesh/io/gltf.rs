@@ -16,7 +16,7 @@ use gltf::mesh::Mode;
 
 use super::ResourceResolver;
 use crate::error::{Error, Format, Result};
-use crate::mesh::TriMesh;
+use crate::mesh::{Part, TriMesh};
 
 /// Deeper node nesting than this is treated as a cycle (validation does not catch them).
 const MAX_DEPTH: usize = 256;
@@ -40,8 +40,10 @@ pub(super) fn parse(bytes: &[u8], resources: &dyn ResourceResolver) -> Result<Tr
         blob: gltf.blob.as_deref(),
         resources,
         meshes: HashMap::new(),
+        visited: vec![false; gltf.nodes().len()],
         positions: Vec::new(),
         triangles: Vec::new(),
+        parts: Vec::new(),
     };
     let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -59,7 +61,7 @@ pub(super) fn parse(bytes: &[u8], resources: &dyn ResourceResolver) -> Result<Tr
     for node in roots {
         loader.visit(&node, &IDENTITY, 0)?;
     }
-    TriMesh::new(loader.positions, loader.triangles)
+    TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
 }
 
 /// The crate's validation, minus one rule: POSITION accessors without
@@ -67,8 +69,29 @@ pub(super) fn parse(bytes: &[u8], resources: &dyn ResourceResolver) -> Result<Tr
 /// not needed here. Everything the readers rely on (indices in range, known
 /// component types) is still checked.
 fn validate(document: &gltf::Document) -> Result<()> {
-    use gltf::json::validation::{Error as Rule, Validate};
+    use gltf::json::validation::{Checked, Error as Rule, Validate};
     let root = document.as_json();
+    // gltf-json's own check of POSITION accessors indexes the accessor list
+    // before anything has checked the index: an out-of-range index would
+    // panic there, so it is checked here first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = prim
+                .attributes
+                .get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    format!("mesh {m} primitive {p}"),
+                    format!(
+                        "POSITION refers to accessor {}, but there are {}",
+                        index.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
     let mut problems = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, rule| {
         let path = path();
@@ -99,8 +122,11 @@ struct Loader<'a> {
     blob: Option<&'a [u8]>,
     resources: &'a dyn ResourceResolver,
     meshes: HashMap<usize, LocalMesh>,
+    visited: Vec<bool>,
     positions: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
+    /// One per placed mesh, so that instances of a mesh are known as such.
+    parts: Vec<Part>,
 }
 
 impl Loader<'_> {
@@ -110,6 +136,15 @@ impl Loader<'_> {
                 Format::Gltf,
                 format!("node {}", node.index()),
                 "the node hierarchy is deeper than 256 levels or has a cycle",
+            ));
+        }
+        // glTF nodes form a forest: a node reached twice has two parents or
+        // sits on a cycle, and following it again could take exponential time.
+        if std::mem::replace(&mut self.visited[node.index()], true) {
+            return Err(Error::malformed(
+                Format::Gltf,
+                format!("node {}", node.index()),
+                "the node is reached twice: it has several parents or the hierarchy has a cycle",
             ));
         }
         let local = node.transform().matrix().map(|c| c.map(f64::from));
@@ -126,6 +161,13 @@ impl Loader<'_> {
                 .ok_or_else(|| {
                     Error::malformed(Format::Gltf, "scene", "more than 4 billion vertices")
                 })?;
+            self.parts.push(Part {
+                first_vertex: base,
+                vertex_count: m.positions.len() as u32,
+                first_triangle: self.triangles.len() as u32,
+                triangle_count: m.triangles.len() as u32,
+                source: mesh.index() as u32,
+            });
             self.positions
                 .extend(m.positions.iter().map(|&p| transform(&world, p)));
             self.triangles
@@ -541,6 +583,34 @@ mod tests {
             parse(doc.as_bytes(), &short),
             Err(Error::Malformed { .. })
         ));
+    }
+
+    #[test]
+    fn a_position_accessor_out_of_range_is_an_error_not_a_panic() {
+        // Regression: gltf-json 1.4.1 indexes accessors with this value
+        // before validating it.
+        let doc = tiny_gltf(&data_uri()).replace(r#""POSITION":0"#, r#""POSITION":7"#);
+        let e = load(doc.as_bytes(), Some(Format::Gltf)).unwrap_err();
+        assert!(e.to_string().contains("accessor 7"), "{e}");
+    }
+
+    #[test]
+    fn a_node_cycle_is_an_error() {
+        let doc = tiny_gltf(&data_uri()).replace(
+            r#"{"scale":[2,2,2],"mesh":0}"#,
+            r#"{"scale":[2,2,2],"mesh":0,"children":[0]}"#,
+        );
+        assert!(matches!(
+            load(doc.as_bytes(), Some(Format::Gltf)),
+            Err(Error::Malformed { .. })
+        ));
+    }
+
+    #[test]
+    fn a_node_with_two_parents_is_an_error() {
+        let doc = tiny_gltf(&data_uri()).replace(r#""children":[1]"#, r#""children":[1,1]"#);
+        let e = load(doc.as_bytes(), Some(Format::Gltf)).unwrap_err();
+        assert!(e.to_string().contains("reached twice"), "{e}");
     }
 
     #[test]

@@ -1,0 +1,279 @@
+//! The command-line tool: the JSON contract of DESIGN.md, the demo, and
+//! errors a person can act on.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cli(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fast-reject"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn match_prints_the_json_contract() {
+    let dir = common::scene_dir("select-cow-head");
+    let scene = dir.join("scene.glb");
+    let s = &common::truth("select-cow-head")["select"];
+    let c: Vec<f64> = s["center"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let select = format!(
+        "{},{},{},{}",
+        c[0],
+        c[1],
+        c[2],
+        s["radius"].as_f64().unwrap()
+    );
+    let out = cli(&["match", path_str(&scene), "--select", &select, "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
+    assert_eq!(v["template"]["center"].as_array().unwrap().len(), 3);
+    assert!(v["template"]["radius"].as_f64().unwrap() > 0.0);
+    let inst = v["instances"].as_array().unwrap();
+    assert_eq!(inst.len(), 5);
+    for i in inst {
+        assert_eq!(i["position"].as_array().unwrap().len(), 3);
+        assert!(i["distance"].is_number() && i["support"].is_u64());
+    }
+    let stages = v["stages"].as_array().unwrap();
+    assert_eq!(stages.len(), 12);
+    for key in [
+        "descriptor",
+        "layer",
+        "radius",
+        "candidates",
+        "survivors",
+        "ms",
+    ] {
+        assert!(
+            stages.iter().all(|s| !s[key].is_null()),
+            "stages lack {key}"
+        );
+    }
+    assert_eq!(stages[0]["descriptor"], "volume");
+    assert_eq!(stages[11]["descriptor"], "harmonics");
+    assert_eq!(v["grid"]["resolution"], 512);
+    assert!(
+        v["grid"]["voxel_size"].as_f64().unwrap() > 0.0
+            && v["grid"]["skin_voxels"].as_u64().unwrap() > 0
+    );
+    for key in ["load", "voxelize", "template", "match", "group", "total"] {
+        assert!(
+            v["timings_ms"][key].as_f64().unwrap() >= 0.0,
+            "timings lack {key}"
+        );
+    }
+}
+
+#[test]
+fn the_demo_finds_its_three_mugs() {
+    let out = cli(&["demo", "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let truth: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/demo/truth.json"
+        ))
+        .unwrap(),
+    )
+    .unwrap();
+    let c: Vec<f64> = v["template"]["center"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let targets: Vec<[f64; 3]> = truth["instances"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| {
+            let t = &i["transform"];
+            let m = |r: usize, k: usize| t[r][k].as_f64().unwrap();
+            [0, 1, 2].map(|r| m(r, 0) * c[0] + m(r, 1) * c[1] + m(r, 2) * c[2] + m(r, 3))
+        })
+        .collect();
+    let found: Vec<[f64; 3]> = v["instances"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| [0, 1, 2].map(|k| i["position"][k].as_f64().unwrap()))
+        .collect();
+    assert_eq!(found.len(), 3, "{found:?}");
+    for t in &targets {
+        assert!(
+            found
+                .iter()
+                .any(|f| (0..3).map(|k| (f[k] - t[k]).powi(2)).sum::<f64>().sqrt() < 0.2),
+            "no instance near {t:?}"
+        );
+    }
+    // Without --json it prints a readable table.
+    let out = cli(&["demo"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("3 instance(s)") && text.contains("harmonics"),
+        "{text}"
+    );
+}
+
+/// Splits a .glb into a .gltf with its buffer in a .bin beside it.
+fn glb_to_gltf(glb: &[u8], dir: &Path, stem: &str) -> PathBuf {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin_start = 20 + json_len;
+    let bin_len = u32::from_le_bytes(glb[bin_start..bin_start + 4].try_into().unwrap()) as usize;
+    let bin = &glb[bin_start + 8..bin_start + 8 + bin_len];
+    json["buffers"][0]["uri"] = serde_json::Value::String(format!("{stem}.bin"));
+    std::fs::write(dir.join(format!("{stem}.bin")), bin).unwrap();
+    let path = dir.join(format!("{stem}.gltf"));
+    std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn a_gltf_reads_the_bin_beside_it() {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let dir = scratch("gltf-beside");
+    let scene = glb_to_gltf(
+        &std::fs::read(format!("{demo}/scene.glb")).unwrap(),
+        &dir,
+        "scene",
+    );
+    let template = glb_to_gltf(
+        &std::fs::read(format!("{demo}/template.glb")).unwrap(),
+        &dir,
+        "template",
+    );
+    let out = cli(&[
+        "match",
+        path_str(&scene),
+        "--template",
+        path_str(&template),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["instances"].as_array().unwrap().len(), 3);
+    // Without its .bin, the message says what is missing and what to do.
+    std::fs::remove_file(dir.join("template.bin")).unwrap();
+    let out = cli(&["match", path_str(&scene), "--template", path_str(&template)]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("template.bin") && stderr(&out).contains("beside"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn errors_exit_non_zero_with_a_message() {
+    let dir = scratch("cli-errors");
+    let garbage = dir.join("garbage.glb");
+    std::fs::write(&garbage, b"glTF\x02\x00\x00\x00not really").unwrap();
+    let demo_scene = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/scene.glb");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["match", "/no/such/scene.glb", "--template", demo_scene],
+            "cannot read '/no/such/scene.glb'",
+        ),
+        (
+            vec!["match", path_str(&garbage), "--template", demo_scene],
+            "malformed glTF",
+        ),
+        (
+            vec!["match", demo_scene, "--select", "1,2,3"],
+            "four numbers",
+        ),
+        (
+            vec!["match", demo_scene, "--select", "100,100,100,0.5"],
+            "touches no surface",
+        ),
+        (
+            vec![
+                "match",
+                demo_scene,
+                "--select",
+                "0,0,0,0.5",
+                "--resolution",
+                "16384",
+            ],
+            "lower the resolution",
+        ),
+        (
+            vec![
+                "match",
+                demo_scene,
+                "--select",
+                "0,0,0,0.5",
+                "--threads",
+                "0",
+            ],
+            "--threads",
+        ),
+    ];
+    for (args, expected) in cases {
+        let out = cli(&args);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(out.stdout.is_empty(), "{args:?} printed to stdout");
+        assert!(
+            stderr(&out).contains(expected),
+            "{args:?}: {}",
+            stderr(&out)
+        );
+    }
+    // Neither --template nor --select: a usage error from the parser.
+    let out = cli(&["match", demo_scene]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--template"), "{}", stderr(&out));
+}
+
+#[test]
+fn one_thread_gives_the_same_instances() {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let args = |threads: &'static str| {
+        vec![
+            "match".to_string(),
+            format!("{demo}/scene.glb"),
+            "--template".into(),
+            format!("{demo}/template.glb"),
+            "--json".into(),
+            "--threads".into(),
+            threads.into(),
+        ]
+    };
+    let run = |t| {
+        let a = args(t);
+        let out = Command::new(env!("CARGO_BIN_EXE_fast-reject"))
+            .args(&a)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["instances"].clone()
+    };
+    assert_eq!(run("1"), run("2"));
+}

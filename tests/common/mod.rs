@@ -1,0 +1,142 @@
+//! Helpers shared by the integration tests: the shared scenes and a scorer
+//! that follows `../shared/bench/evaluate.py` exactly.
+
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use fast_reject::mesh::io::load;
+use fast_reject::scene::{Scene, SceneOptions};
+use fast_reject::search::{MatchOptions, MatchReport, search};
+use fast_reject::template::TemplateSource;
+
+/// The folder of a shared scene; fails loudly when the shared data is absent,
+/// so that a missing checkout can never pass as success.
+pub fn scene_dir(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes")
+        .join(name);
+    assert!(
+        dir.join("truth.json").exists(),
+        "shared scene {} not found: the tests expect ../shared beside the repository",
+        dir.display()
+    );
+    dir
+}
+
+pub fn truth(name: &str) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(scene_dir(name).join("truth.json")).unwrap()).unwrap()
+}
+
+/// The template of a scene: its model, or with `select` its selection sphere.
+pub fn template(name: &str, select: bool) -> TemplateSource {
+    let dir = scene_dir(name);
+    if select {
+        let s = &truth(name)["select"];
+        let c: Vec<f64> = s["center"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        TemplateSource::Selection {
+            center: [c[0], c[1], c[2]],
+            radius: s["radius"].as_f64().unwrap(),
+        }
+    } else {
+        TemplateSource::Model(
+            load(&std::fs::read(dir.join("template.glb")).unwrap(), None).unwrap(),
+        )
+    }
+}
+
+pub fn scene(name: &str, options: &SceneOptions) -> Scene {
+    let mesh = load(
+        &std::fs::read(scene_dir(name).join("scene.glb")).unwrap(),
+        None,
+    )
+    .unwrap();
+    Scene::new(mesh, options).unwrap()
+}
+
+/// Runs the matcher with default parameters.
+pub fn run(name: &str, select: bool) -> MatchReport {
+    search(
+        &scene(name, &SceneOptions::DEFAULT),
+        &template(name, select),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap()
+}
+
+/// What evaluate.py prints: recall, true positives, false positives, targets.
+#[derive(Debug, PartialEq)]
+pub struct Score {
+    pub recall: f64,
+    pub tp: usize,
+    pub fp: usize,
+    pub targets: usize,
+}
+
+fn apply(t: &serde_json::Value, p: [f64; 3]) -> [f64; 3] {
+    let m = |r: usize, c: usize| t[r][c].as_f64().unwrap();
+    [0, 1, 2].map(|r| m(r, 0) * p[0] + m(r, 1) * p[1] + m(r, 2) * p[2] + m(r, 3))
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Scores a report against a scene's truth the way evaluate.py does.
+pub fn score(truth: &serde_json::Value, report: &MatchReport, select: bool) -> Score {
+    let tol = truth
+        .get("tolerance")
+        .and_then(|t| t.as_f64())
+        .unwrap_or(0.2);
+    let (targets, radius): (Vec<[f64; 3]>, f64) = if select {
+        let s = &truth["select"];
+        let t = s["expected"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| [0, 1, 2].map(|i| e[i].as_f64().unwrap()))
+            .collect();
+        (t, s["radius"].as_f64().unwrap())
+    } else {
+        let c = report.template.center;
+        let t = truth["instances"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| apply(&i["transform"], c))
+            .collect();
+        (
+            t,
+            truth
+                .get("template_radius")
+                .and_then(|r| r.as_f64())
+                .unwrap_or(1.0),
+        )
+    };
+    let near: Vec<Vec<bool>> = report
+        .instances
+        .iter()
+        .map(|i| {
+            targets
+                .iter()
+                .map(|t| dist(i.position, *t) < tol * radius)
+                .collect()
+        })
+        .collect();
+    let tp = (0..targets.len())
+        .filter(|&j| near.iter().any(|row| row[j]))
+        .count();
+    let fp = near.iter().filter(|row| !row.iter().any(|&b| b)).count();
+    Score {
+        recall: tp as f64 / targets.len() as f64,
+        tp,
+        fp,
+        targets: targets.len(),
+    }
+}

@@ -1,0 +1,37 @@
+//! The matcher on the shared benchmark scenes, with default parameters:
+//! every instance found, nothing else reported (scored like evaluate.py).
+
+mod common;
+
+use common::{run, score, truth};
+
+fn assert_finds_everything(name: &str, select: bool) {
+    let report = run(name, select);
+    let s = score(&truth(name), &report, select);
+    assert_eq!(
+        (s.tp, s.fp),
+        (s.targets, 0),
+        "{name}: {s:?}; instances reported: {:#?}",
+        report.instances
+    );
+}
+
+#[test]
+fn zoo_bunny() {
+    assert_finds_everything("zoo-bunny", false);
+}
+
+#[test]
+fn remeshed_cow() {
+    assert_finds_everything("remeshed-cow", false);
+}
+
+#[test]
+fn crowd_rocker() {
+    assert_finds_everything("crowd-rocker", false);
+}
+
+#[test]
+fn select_cow_head() {
+    assert_finds_everything("select-cow-head", true);
+}
