@@ -66,11 +66,14 @@ impl Template {
         let voxel_size = scene.voxel_size();
         let (center, radius, own_solid, voxel) = match source {
             TemplateSource::Model(mesh) => {
-                let used: Vec<Vec3> = mesh
-                    .triangles()
-                    .iter()
-                    .flatten()
-                    .map(|&i| mesh.vertex(i))
+                // Each vertex once, whatever the number of triangles using it.
+                let mut is_used = vec![false; mesh.positions().len()];
+                for &i in mesh.triangles().iter().flatten() {
+                    is_used[i as usize] = true;
+                }
+                let used: Vec<Vec3> = (0..is_used.len())
+                    .filter(|&i| is_used[i])
+                    .map(|i| mesh.vertex(i as u32))
                     .collect();
                 let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
                 let spec = GridSpec::around(mesh.bounds(), voxel_size);

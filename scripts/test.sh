@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Every test: the Rust suites (unit oracles, the shared scenes, bad input,
+# the CLI, serial = parallel), then the CLI scored by the shared
+# evaluate.py on the scenes the defaults must match perfectly, and a report
+# on the others.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo test --release
+cargo build --release --bin fast-reject
+echo "== evaluate.py on the required scenes"
+scripts/evaluate.sh zoo-bunny remeshed-cow crowd-rocker select-cow-head
+echo "== evaluate.py on the scenes of later issues (reported, not required)"
+scripts/evaluate.sh --report-only fused-homer cluttered-bunny twisted-homer
