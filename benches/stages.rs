@@ -7,13 +7,15 @@
 //! runs the scenes whose names contain NAME. The scenes come from
 //! `../shared/scenes`; the default parameters are used throughout.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::path::Path;
 
 use fast_reject::clock::now_ms;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
-use fast_reject::template::TemplateSource;
 
 /// (scene, true for a selection query)
 const SCENES: [(&str, bool); 7] = [
@@ -50,9 +52,8 @@ fn main() {
         if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
             continue;
         }
-        let dir = root.join(name);
         let best = (0..runs)
-            .map(|_| run(&dir, select))
+            .map(|_| run(name, select))
             .min_by(|a, b| a.timings.total.total_cmp(&b.timings.total))
             .unwrap();
         print_scene(name, &best);
@@ -78,28 +79,14 @@ fn main() {
     }
 }
 
-fn run(dir: &Path, select: bool) -> MatchReport {
+fn run(name: &str, select: bool) -> MatchReport {
     let start = now_ms();
-    let scene_mesh = load(&std::fs::read(dir.join("scene.glb")).unwrap(), None).unwrap();
-    let source = if select {
-        let truth: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.join("truth.json")).unwrap()).unwrap();
-        let s = &truth["select"];
-        let c: Vec<f64> = s["center"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect();
-        TemplateSource::Selection {
-            center: [c[0], c[1], c[2]],
-            radius: s["radius"].as_f64().unwrap(),
-        }
-    } else {
-        TemplateSource::Model(
-            load(&std::fs::read(dir.join("template.glb")).unwrap(), None).unwrap(),
-        )
-    };
+    let scene_mesh = load(
+        &std::fs::read(common::scene_dir(name).join("scene.glb")).unwrap(),
+        None,
+    )
+    .unwrap();
+    let source = common::template(name, select);
     let load_ms = now_ms() - start;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
     let mut report = search(&scene, &source, &MatchOptions::DEFAULT, &mut ()).unwrap();
@@ -109,29 +96,5 @@ fn run(dir: &Path, select: bool) -> MatchReport {
 }
 
 fn print_scene(name: &str, r: &MatchReport) {
-    println!(
-        "{name}: {} skin voxels, voxel {:.5}",
-        r.grid.skin_voxels, r.grid.voxel_size
-    );
-    println!(
-        "  {:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
-        "stage", "layer", "radius", "candidates", "survivors", "ms"
-    );
-    for s in &r.stages {
-        println!(
-            "  {:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
-            s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
-        );
-    }
-    let t = &r.timings;
-    println!(
-        "  load {:.1}, voxelize {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1} ms; {} instance(s)\n",
-        t.load,
-        t.voxelize,
-        t.template,
-        t.match_,
-        t.group,
-        t.total,
-        r.instances.len()
-    );
+    println!("== {name}\n{r}\n");
 }

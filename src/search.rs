@@ -195,6 +195,56 @@ pub struct MatchReport {
     pub timings: Timings,
 }
 
+/// A readable table: template, grid, every layer, the instances, timings.
+impl fmt::Display for MatchReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let t = &self.template;
+        writeln!(
+            f,
+            "template: centre ({:.4}, {:.4}, {:.4}), radius {:.4}",
+            t.center[0], t.center[1], t.center[2], t.radius
+        )?;
+        writeln!(
+            f,
+            "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points\n",
+            self.grid.resolution, self.grid.voxel_size, self.grid.skin_voxels
+        )?;
+        writeln!(
+            f,
+            "{:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
+            "stage", "layer", "radius", "candidates", "survivors", "ms"
+        )?;
+        for s in &self.stages {
+            writeln!(
+                f,
+                "{:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
+                s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
+            )?;
+        }
+        writeln!(f, "\n{} instance(s):", self.instances.len())?;
+        for (i, inst) in self.instances.iter().enumerate() {
+            let p = inst.position;
+            writeln!(
+                f,
+                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}  overlap {:.3}  support {}",
+                i + 1,
+                p[0],
+                p[1],
+                p[2],
+                inst.distance,
+                inst.score,
+                inst.support
+            )?;
+        }
+        let tm = &self.timings;
+        write!(
+            f,
+            "\ntime (ms): load {:.1}, voxelize {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1}",
+            tm.load, tm.voxelize, tm.template, tm.match_, tm.group, tm.total
+        )
+    }
+}
+
 /// Searches `scene` for every occurrence of `source`.
 pub fn search(
     scene: &Scene,

@@ -31,20 +31,7 @@ fn path_str(p: &Path) -> &str {
 fn match_prints_the_json_contract() {
     let dir = common::scene_dir("select-cow-head");
     let scene = dir.join("scene.glb");
-    let s = &common::truth("select-cow-head")["select"];
-    let c: Vec<f64> = s["center"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let select = format!(
-        "{},{},{},{}",
-        c[0],
-        c[1],
-        c[2],
-        s["radius"].as_f64().unwrap()
-    );
+    let select = common::select_arg("select-cow-head");
     let out = cli(&["match", path_str(&scene), "--select", &select, "--json"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: serde_json::Value =

@@ -189,43 +189,8 @@ fn print_report(
     if json {
         let text = serde_json::to_string(report).map_err(|e| e.to_string())?;
         println!("{text}");
-        return Ok(());
+    } else {
+        println!("descriptor: {descriptor}\n{report}");
     }
-    let t = &report.template;
-    println!(
-        "template: centre ({:.4}, {:.4}, {:.4}), radius {:.4}; descriptor {descriptor}",
-        t.center[0], t.center[1], t.center[2], t.radius
-    );
-    println!(
-        "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points\n",
-        report.grid.resolution, report.grid.voxel_size, report.grid.skin_voxels
-    );
-    println!(
-        "{:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
-        "stage", "layer", "radius", "candidates", "survivors", "ms"
-    );
-    for s in &report.stages {
-        println!(
-            "{:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
-            s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
-        );
-    }
-    println!("\n{} instance(s):", report.instances.len());
-    for (i, inst) in report.instances.iter().enumerate() {
-        println!(
-            "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}  support {}",
-            i + 1,
-            inst.position[0],
-            inst.position[1],
-            inst.position[2],
-            inst.distance,
-            inst.support
-        );
-    }
-    let tm = &report.timings;
-    println!(
-        "\ntime (ms): load {:.1}, voxelize {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1}",
-        tm.load, tm.voxelize, tm.template, tm.match_, tm.group, tm.total
-    );
     Ok(())
 }

@@ -330,14 +330,7 @@ impl<'a> VolumeDescriptor<'a> {
         backend: Backend,
     ) -> Self {
         let balls = Self::balls(solid, radii, backend);
-        VolumeDescriptor {
-            solid,
-            points,
-            balls,
-            radii: radii.to_vec(),
-            template,
-            threshold,
-        }
+        Self::with_balls(solid, points, radii, balls, template, threshold)
     }
 
     /// A stage from balls already bound to `solid` (one per radius).

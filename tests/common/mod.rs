@@ -28,21 +28,28 @@ pub fn truth(name: &str) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(scene_dir(name).join("truth.json")).unwrap()).unwrap()
 }
 
+/// A scene's selection sphere: centre and radius.
+pub fn selection(name: &str) -> ([f64; 3], f64) {
+    let s = &truth(name)["select"];
+    let c = &s["center"];
+    (
+        [0, 1, 2].map(|i| c[i].as_f64().unwrap()),
+        s["radius"].as_f64().unwrap(),
+    )
+}
+
+/// A scene's selection sphere as the CLI's "X,Y,Z,R".
+pub fn select_arg(name: &str) -> String {
+    let (c, r) = selection(name);
+    format!("{},{},{},{r}", c[0], c[1], c[2])
+}
+
 /// The template of a scene: its model, or with `select` its selection sphere.
 pub fn template(name: &str, select: bool) -> TemplateSource {
     let dir = scene_dir(name);
     if select {
-        let s = &truth(name)["select"];
-        let c: Vec<f64> = s["center"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect();
-        TemplateSource::Selection {
-            center: [c[0], c[1], c[2]],
-            radius: s["radius"].as_f64().unwrap(),
-        }
+        let (center, radius) = selection(name);
+        TemplateSource::Selection { center, radius }
     } else {
         TemplateSource::Model(
             load(&std::fs::read(dir.join("template.glb")).unwrap(), None).unwrap(),

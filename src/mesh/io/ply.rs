@@ -969,10 +969,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn crlf_header_and_ascii_data() {
-        let file = sample(Out::Ascii, false);
-        let crlf: Vec<u8> = file
+    fn to_crlf(bytes: &[u8]) -> Vec<u8> {
+        bytes
             .iter()
             .flat_map(|&b| {
                 if b == b'\n' {
@@ -981,24 +979,20 @@ mod tests {
                     vec![b]
                 }
             })
-            .collect();
-        check_sample(&parse(&crlf).unwrap());
+            .collect()
+    }
+
+    #[test]
+    fn crlf_header_and_ascii_data() {
+        let file = sample(Out::Ascii, false);
+        check_sample(&parse(&to_crlf(&file)).unwrap());
         let binary = sample(Out::Little, true);
         let split = binary
             .windows(11)
             .position(|w| w == b"end_header\n")
             .unwrap()
             + 11;
-        let mut crlf: Vec<u8> = binary[..split]
-            .iter()
-            .flat_map(|&b| {
-                if b == b'\n' {
-                    vec![b'\r', b'\n']
-                } else {
-                    vec![b]
-                }
-            })
-            .collect();
+        let mut crlf = to_crlf(&binary[..split]);
         crlf.extend_from_slice(&binary[split..]);
         check_sample(&parse(&crlf).unwrap());
     }
