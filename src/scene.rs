@@ -6,7 +6,7 @@ use crate::error::Result;
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
-use crate::voxel::{Grid, GridSpec, Solid, skin, voxelize};
+use crate::voxel::{Grid, GridSpec, Solid, dilate, skin, voxelize};
 
 /// How to voxelize a scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,14 +54,16 @@ impl Default for SceneOptions {
     }
 }
 
-/// Bit grids alive at once while voxelizing (surface, interior, solid, skin).
-pub(crate) const GRIDS_IN_FLIGHT: u64 = 4;
+/// Bit grids alive at once while voxelizing (surface, interior, solid, skin,
+/// near surface).
+pub(crate) const GRIDS_IN_FLIGHT: u64 = 5;
 
 /// A voxelized scene.
 pub struct Scene {
     mesh: TriMesh,
     solid: Solid,
     skin: Vec<[u16; 3]>,
+    near_surface: Grid,
     resolution: u32,
     voxelize_ms: f64,
 }
@@ -73,11 +75,14 @@ impl Scene {
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
         spec.check_memory(GRIDS_IN_FLIGHT, options.max_grid_bytes, options.resolution)?;
         let grid = voxelize(&mesh, &spec, options.backend);
-        let skin = skin(&grid).iter_ones().collect();
+        let skin_grid = skin(&grid);
+        let near_surface = dilate(&skin_grid);
+        let skin = skin_grid.iter_ones().collect();
         Ok(Scene {
             mesh,
             solid: Solid::new(grid),
             skin,
+            near_surface,
             resolution: options.resolution,
             voxelize_ms: now_ms() - start,
         })
@@ -101,6 +106,11 @@ impl Scene {
     /// The candidate points: skin voxels in z, y, x order.
     pub fn skin(&self) -> &[[u16; 3]] {
         &self.skin
+    }
+
+    /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
+    pub fn near_surface(&self) -> &Grid {
+        &self.near_surface
     }
 
     /// The resolution it was voxelized at.

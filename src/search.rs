@@ -5,7 +5,8 @@ use std::str::FromStr;
 
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
-use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::harmonics::ClutterGuard;
+use crate::descriptor::{ClutterPolicy, HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::instances::{Instance, Verified, group, local_bests};
@@ -76,9 +77,13 @@ pub struct MatchOptions {
     /// instance: an occurrence claims the ball its descriptor describes.
     /// Default: 1.0.
     pub group_radius: f64,
-    /// Verification: the least overlap (intersection over union, 0..1) of the
-    /// template placed at a point with the scene there. Default: 0.75.
+    /// Verification: the least share of the template's surface that must
+    /// land on the scene's surface when the template is placed at a point
+    /// (0..1). Default: 0.75.
     pub verify_threshold: f64,
+    /// When extra material (other objects) excuses the outer layers; see
+    /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
+    pub clutter: ClutterPolicy,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
     /// Cap on the template's voxel grid. Default: 2 GiB.
@@ -94,6 +99,7 @@ impl MatchOptions {
         harmonics_threshold: 0.8,
         group_radius: 1.0,
         verify_threshold: 0.75,
+        clutter: ClutterPolicy::DEFAULT,
         backend: Backend::Parallel,
         max_grid_bytes: 2 << 30,
     };
@@ -280,18 +286,26 @@ pub fn search(
             .collect(),
         VolumeDescriptor::describe_with(tsolid, tvoxel, &template_balls),
         options.volume_threshold,
-    );
+    )
+    .with_clutter(options.clutter);
     let harmonics = match options.descriptor {
         DescriptorKind::Volume => None,
-        _ => Some(HarmonicsDescriptor::new(
-            scene.solid(),
-            scene.skin(),
-            &transform,
-            radii,
-            HarmonicsDescriptor::describe(tsolid, tvoxel, radii, &transform, backend),
-            options.harmonics_threshold,
-            backend,
-        )),
+        _ => Some(
+            HarmonicsDescriptor::new(
+                scene.solid(),
+                scene.skin(),
+                &transform,
+                radii,
+                HarmonicsDescriptor::describe(tsolid, tvoxel, radii, &transform, backend),
+                options.harmonics_threshold,
+                backend,
+            )
+            .with_clutter(ClutterGuard {
+                policy: options.clutter,
+                balls: volume.balls(),
+                template: volume.template(),
+            }),
+        ),
     };
     let mut stages: Vec<&dyn Stage> = Vec::new();
     if options.descriptor != DescriptorKind::Harmonics {
@@ -306,20 +320,22 @@ pub fn search(
     let t2 = now_ms();
     let position = |p| scene.position(p);
     let bests = local_bests(&survivors, position, radii[0]);
+    let voxel = scene.voxel_size();
+    let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
     let verifier = Verifier::new(
         tsolid,
         tvoxel,
         template.center_offset(scene),
-        template.radius() / scene.voxel_size(),
+        &radii_voxels,
         backend,
     );
-    let voxel = scene.voxel_size();
     let verified: Vec<Verified> = backend
         .map(bests.len(), |i| {
-            let placement = verifier.check(scene.solid(), scene.skin()[bests[i].point as usize]);
+            let v = scene.skin()[bests[i].point as usize];
+            let placement = verifier.check(scene.solid(), scene.near_surface(), v);
             Verified {
                 survivor: bests[i],
-                score: placement.score,
+                score: placement.score(),
                 position: scene.position(bests[i].point) + placement.offset * voxel,
             }
         })

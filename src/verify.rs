@@ -6,26 +6,37 @@
 //! So a point of a mirror-symmetric template and its mirror twin look the
 //! same (the flank of a cow and the other flank), and so can two merely
 //! similar parts. The cascade cannot tell; the template's actual placement
-//! can. For each candidate point, the solid in the ball around it gives a
-//! frame (centroid and principal axes of its second moments, from a coarse
-//! pyramid level), and so does the template's ball: aligning the two fixes
-//! the pose up to the signs of the axes. Of the four sign choices that make a
-//! proper rotation, the one whose placed template best overlaps the scene is
-//! kept; the overlap (an intersection over union estimated from samples of
-//! the template's ball) is the score, and the pose tells where the
-//! template's own point c_T lands. That is where the instance is reported: a
-//! mirror twin of c_T, or any other point of the same object, implies the
-//! same placement, since a proper rotation cannot turn the object into its
-//! mirror image. Aligning centroids rather than the candidate points also
-//! absorbs the voxel or two by which the best candidate misses c_T, which on
-//! thin templates would otherwise cost much of the overlap.
+//! can.
+//!
+//! For a candidate point, the solid in a ball around it gives a frame
+//! (centroid and principal axes of its second moments, from a coarse pyramid
+//! level), and so does the template's ball of the same radius: aligning the
+//! two fixes the pose up to the signs of the axes. Of the four sign choices
+//! that make a proper rotation, the best placement is kept, and the pose
+//! tells where the template's own point c_T lands: that is where the
+//! instance is reported. A mirror twin of c_T, or any other point of the
+//! same object, implies the same placement, since a proper rotation cannot
+//! turn the object into its mirror image; aligning centroids rather than the
+//! candidate points also absorbs the voxel or two by which the best candidate
+//! misses c_T.
+//!
+//! The frame is taken from the largest ball the cascade found clean (no
+//! material beyond the template's): other objects fused to or touching the
+//! occurrence would bend it otherwise. The placement is scored by
+//! - `overlap`: intersection over union of template and scene within that
+//!   clean ball, where both must agree;
+//! - `surface`: the share of the template's surface, over its whole extent,
+//!   that lands within a voxel of the scene's surface. Material added by
+//!   neighbours hides only the part of the surface it touches, while a
+//!   template sunk into a solid, floating in space, wrongly turned or at the
+//!   wrong scale misses most of it.
 
 use crate::descriptor::volume::Ball;
 use crate::exec::Backend;
 use crate::math::{Vec3, symmetric_eigen};
-use crate::voxel::{Solid, level_for_radius};
+use crate::voxel::{Grid, Solid, level_for_radius, skin};
 
-/// Samples of each kind (solid, empty) taken from the template's ball.
+/// Samples of each kind (solid, empty, surface) taken from the template.
 const SAMPLES: usize = 4096;
 
 /// Blocks per radius for the moments.
@@ -40,17 +51,18 @@ const TIE: f64 = 0.02;
 struct Frame {
     centroid: Vec3,
     axes: [Vec3; 3],
-    values: [f64; 3],
 }
 
 /// A template prepared for verification.
 pub struct Verifier {
-    ball: Ball,
-    frame: Frame,
-    solid: Vec<Vec3>,
-    empty: Vec<Vec3>,
-    /// Share of the template's ball that is solid.
-    solid_share: f64,
+    /// The balls frames are taken from, one per layer radius.
+    balls: Vec<Ball>,
+    /// The template's frame in each of them.
+    frames: Vec<Frame>,
+    /// Template samples relative to the anchor (voxels), with their distance.
+    solid: Vec<(Vec3, f64)>,
+    empty: Vec<(Vec3, f64)>,
+    surface: Vec<Vec3>,
     /// c_T relative to the anchor, in voxels.
     target: Vec3,
 }
@@ -58,10 +70,14 @@ pub struct Verifier {
 /// The outcome of one check.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {
-    /// Intersection over union of template and scene in the template's ball.
-    pub score: f64,
+    /// Intersection over union of template and scene within the clean ball.
+    pub overlap: f64,
+    /// Share of the template's surface that lands on the scene's surface.
+    pub surface: f64,
     /// Share of the template's solid that the scene covers.
     pub covered: f64,
+    /// Radius of the ball the frame came from (voxels).
+    pub frame_radius: f64,
     /// Rotation from template to scene (rows).
     pub rotation: [Vec3; 3],
     /// Where the template's point c_T lands, relative to the checked voxel
@@ -69,21 +85,36 @@ pub struct Placement {
     pub offset: Vec3,
 }
 
+impl Placement {
+    /// The placement's score: its surface agreement.
+    pub fn score(&self) -> f64 {
+        self.surface
+    }
+}
+
 impl Verifier {
     /// Prepares the template whose descriptors are taken at voxel `anchor` of
-    /// `solid`, over a ball of `radius` voxels.
-    /// `target` is the template's point c_T relative to the anchor's centre
-    /// (voxels): placements report where it lands.
+    /// `solid`; `target` is c_T relative to the anchor's centre and `radii`
+    /// the layer radii, all in voxels (the last is the template's extent).
     pub fn new(
         solid: &Solid,
         anchor: [u16; 3],
         target: Vec3,
-        radius: f64,
+        radii: &[f64],
         backend: Backend,
     ) -> Verifier {
-        let ball = Ball::at_level(radius, level_for_radius(radius, MOMENT_BLOCKS).max(1))
-            .bind(solid, backend);
-        let frame = local_frame(&ball, solid, anchor);
+        let balls: Vec<Ball> = radii
+            .iter()
+            .map(|&r| {
+                Ball::build(r, level_for_radius(r, MOMENT_BLOCKS).max(1), backend)
+                    .bind(solid, backend)
+            })
+            .collect();
+        let frames = balls
+            .iter()
+            .map(|b| local_frame(b, solid, anchor))
+            .collect();
+        let radius = *radii.last().expect("at least one layer");
         // A sub-lattice of the ball, fine enough for about SAMPLES points of
         // each kind: sampling beats scanning millions of voxels.
         let volume = 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
@@ -94,7 +125,8 @@ impl Verifier {
         for dz in (-e..=e).step_by(step as usize) {
             for dy in (-e..=e).step_by(step as usize) {
                 for dx in (-e..=e).step_by(step as usize) {
-                    if ((dx * dx + dy * dy + dz * dz) as f64) > radius * radius {
+                    let d = ((dx * dx + dy * dy + dz * dz) as f64).sqrt();
+                    if d > radius {
                         continue;
                     }
                     let v = Vec3::new(dx as f64, dy as f64, dz as f64);
@@ -103,114 +135,179 @@ impl Verifier {
                         anchor[1] as i64 + dy,
                         anchor[2] as i64 + dz,
                     ) {
-                        solid_pts.push(v);
+                        solid_pts.push((v, d));
                     } else {
-                        empty_pts.push(v);
+                        empty_pts.push((v, d));
                     }
                 }
             }
         }
-        let solid_share =
-            solid_pts.len() as f64 / (solid_pts.len() + empty_pts.len()).max(1) as f64;
+        let a = anchor.map(|c| c as i64);
+        let surface_pts: Vec<Vec3> = skin(bits)
+            .iter_ones()
+            .map(|s| {
+                Vec3::new(
+                    (s[0] as i64 - a[0]) as f64,
+                    (s[1] as i64 - a[1]) as f64,
+                    (s[2] as i64 - a[2]) as f64,
+                )
+            })
+            .filter(|p| p.norm() <= radius)
+            .collect();
         Verifier {
-            ball,
-            frame,
+            balls,
+            frames,
             solid: spread(solid_pts),
             empty: spread(empty_pts),
-            solid_share,
+            surface: spread(surface_pts),
             target,
         }
     }
 
-    /// Places the template at voxel `v` of the scene `solid` (which the
-    /// verifier's ball must be usable with: same voxel size) and scores it.
-    pub fn check(&self, solid: &Solid, v: [u16; 3]) -> Placement {
-        let frame = local_frame(&self.ball, solid, v);
-        let bits = solid.bits();
-        let t = &self.frame.axes;
-        let s = &frame.axes;
-        let handed = det(t) * det(s);
-        let mut best: Option<Placement> = None;
-        // Axis signs whose product makes det(R) = +1.
-        for signs in [
-            [1.0, 1.0, 1.0],
-            [1.0, -1.0, -1.0],
-            [-1.0, 1.0, -1.0],
-            [-1.0, -1.0, 1.0],
-        ] {
-            let signs = signs.map(|x: f64| x * handed.signum());
-            // R = sum_i s_i scene_axis_i template_axis_i^T, as rows.
-            let mut rows = [Vec3::ZERO; 3];
-            for r in 0..3 {
-                rows[r] = (0..3).fold(Vec3::ZERO, |acc, i| acc + t[i] * (signs[i] * s[i][r]));
+    /// Places the template at voxel `v` of the scene `solid` with the frames
+    /// of every layer's ball and keeps the best placement: which balls other
+    /// objects reach is unknown, and a frame bent by them cannot fake a good
+    /// surface agreement. `near_surface` is the scene's skin grown by a voxel.
+    pub fn check(&self, solid: &Solid, near_surface: &Grid, v: [u16; 3]) -> Placement {
+        self.best_of(solid, near_surface, v, 0..self.balls.len())
+    }
+
+    /// Like [`Verifier::check`], with the frame of one layer's ball (1-based).
+    pub fn check_layer(
+        &self,
+        solid: &Solid,
+        near_surface: &Grid,
+        v: [u16; 3],
+        layer: usize,
+    ) -> Placement {
+        let layer = layer.clamp(1, self.balls.len()) - 1;
+        self.best_of(solid, near_surface, v, layer..layer + 1)
+    }
+
+    /// The best placement from the frames of `layers` (0-based). Poses are
+    /// ranked by surface agreement on every 16th surface sample first; only
+    /// those within reach of the best are counted in full, and the volume
+    /// agreement is counted for the winner alone.
+    fn best_of(
+        &self,
+        solid: &Solid,
+        near_surface: &Grid,
+        v: [u16; 3],
+        layers: std::ops::Range<usize>,
+    ) -> Placement {
+        let vi = v.map(|c| c as i64);
+        let mut poses = Vec::with_capacity(4 * layers.len());
+        for layer in layers {
+            let ball = &self.balls[layer];
+            let (ft, fs) = (&self.frames[layer], local_frame(ball, solid, v));
+            let handed = det(&ft.axes) * det(&fs.axes);
+            // Axis signs whose product makes det(R) = +1.
+            for signs in [
+                [1.0, 1.0, 1.0],
+                [1.0, -1.0, -1.0],
+                [-1.0, 1.0, -1.0],
+                [-1.0, -1.0, 1.0],
+            ] {
+                let signs = signs.map(|x: f64| x * handed.signum());
+                // R = sum_i s_i scene_axis_i template_axis_i^T, as rows.
+                let mut rows = [Vec3::ZERO; 3];
+                for r in 0..3 {
+                    rows[r] = (0..3).fold(Vec3::ZERO, |acc, i| {
+                        acc + ft.axes[i] * (signs[i] * fs.axes[i][r])
+                    });
+                }
+                // Centroids coincide: q = c_S + R (a - c_T).
+                let shift = fs.centroid - rotate_with(&rows, ft.centroid);
+                poses.push(Pose {
+                    rows,
+                    shift,
+                    frame_radius: ball.radius(),
+                });
             }
-            // Centroids coincide: q = c_S + R (a - c_T).
-            let shift = frame.centroid
-                - Vec3::new(
-                    rows[0].dot(self.frame.centroid),
-                    rows[1].dot(self.frame.centroid),
-                    rows[2].dot(self.frame.centroid),
-                );
-            let hit = |pts: &[Vec3]| {
-                pts.iter()
-                    .filter(|a| {
-                        let q = [
-                            rows[0].dot(**a) + shift.x,
-                            rows[1].dot(**a) + shift.y,
-                            rows[2].dot(**a) + shift.z,
-                        ];
-                        bits.get(
-                            v[0] as i64 + q[0].round() as i64,
-                            v[1] as i64 + q[1].round() as i64,
-                            v[2] as i64 + q[2].round() as i64,
-                        )
-                    })
-                    .count() as f64
-            };
-            let covered = hit(&self.solid) / self.solid.len().max(1) as f64;
-            let extra = hit(&self.empty) / self.empty.len().max(1) as f64;
-            let inter = self.solid_share * covered;
-            let union = self.solid_share + (1.0 - self.solid_share) * extra;
-            let score = if union > 0.0 { inter / union } else { 0.0 };
+        }
+        let agreement = |pose: &Pose, stride: usize| {
+            let hits = self
+                .surface
+                .iter()
+                .step_by(stride)
+                .filter(|a| pose.lands(near_surface, vi, **a))
+                .count();
+            hits as f64 / self.surface.len().div_ceil(stride).max(1) as f64
+        };
+        let rough: Vec<f64> = poses.iter().map(|p| agreement(p, 16)).collect();
+        let best_rough = rough.iter().copied().fold(0.0, f64::max);
+        let mut best: Option<(f64, &Pose)> = None;
+        for (pose, r) in poses.iter().zip(&rough) {
+            if *r < best_rough - 0.15 {
+                continue;
+            }
+            let surface = agreement(pose, 1);
             // Near-ties (a template symmetric under a rotation): keep the
             // placement that moves the candidate least.
             let better = match best {
                 None => true,
-                Some(b) if (score - b.score).abs() <= TIE => {
-                    shift.norm() < (b.offset - self.rotate_target(&b.rotation)).norm()
-                }
-                Some(b) => score > b.score,
+                Some((b, bp)) if (surface - b).abs() <= TIE => pose.shift.norm() < bp.shift.norm(),
+                Some((b, _)) => surface > b,
             };
             if better {
-                best = Some(Placement {
-                    score,
-                    covered,
-                    rotation: rows,
-                    offset: shift
-                        + Vec3::new(
-                            rows[0].dot(self.target),
-                            rows[1].dot(self.target),
-                            rows[2].dot(self.target),
-                        ),
-                });
+                best = Some((surface, pose));
             }
         }
-        best.expect("four candidates")
+        let (surface, pose) = best.expect("at least one pose");
+        let bits = solid.bits();
+        let (mut inside, mut inside_hit, mut all_hit) = (0usize, 0usize, 0usize);
+        for &(a, d) in &self.solid {
+            let hit = pose.lands(bits, vi, a);
+            all_hit += hit as usize;
+            if d <= pose.frame_radius {
+                inside += 1;
+                inside_hit += hit as usize;
+            }
+        }
+        let extra = self
+            .empty
+            .iter()
+            .filter(|(a, d)| *d <= pose.frame_radius && pose.lands(bits, vi, *a))
+            .count();
+        // Within the frame's ball, as volumes: both lists sample it on the
+        // same lattice.
+        let union = inside + extra;
+        Placement {
+            overlap: if union > 0 {
+                inside_hit as f64 / union as f64
+            } else {
+                0.0
+            },
+            surface,
+            covered: all_hit as f64 / self.solid.len().max(1) as f64,
+            frame_radius: pose.frame_radius,
+            rotation: pose.rows,
+            offset: pose.shift + rotate_with(&pose.rows, self.target),
+        }
     }
+}
 
-    fn rotate_target(&self, rows: &[Vec3; 3]) -> Vec3 {
-        Vec3::new(
-            rows[0].dot(self.target),
-            rows[1].dot(self.target),
-            rows[2].dot(self.target),
+/// A candidate placement: rotation (rows) and shift, in voxels.
+struct Pose {
+    rows: [Vec3; 3],
+    shift: Vec3,
+    frame_radius: f64,
+}
+
+impl Pose {
+    /// Whether template offset `a` lands on a set voxel of `g`, around voxel `v`.
+    fn lands(&self, g: &Grid, v: [i64; 3], a: Vec3) -> bool {
+        let q = rotate_with(&self.rows, a) + self.shift;
+        g.get(
+            v[0] + q.x.round() as i64,
+            v[1] + q.y.round() as i64,
+            v[2] + q.z.round() as i64,
         )
     }
+}
 
-    /// Eigenvalues of the template's local second moments (descending): how
-    /// well its frame is defined.
-    pub fn moment_values(&self) -> [f64; 3] {
-        self.frame.values
-    }
+fn rotate_with(rows: &[Vec3; 3], a: Vec3) -> Vec3 {
+    Vec3::new(rows[0].dot(a), rows[1].dot(a), rows[2].dot(a))
 }
 
 fn det(a: &[Vec3; 3]) -> f64 {
@@ -245,21 +342,17 @@ fn local_frame(ball: &Ball, solid: &Solid, v: [u16; 3]) -> Frame {
             m[i][j] -= mass * c[i] * c[j];
         }
     }
-    let (values, axes) = symmetric_eigen(m);
-    Frame {
-        centroid,
-        axes,
-        values,
-    }
+    let (_, axes) = symmetric_eigen(m);
+    Frame { centroid, axes }
 }
 
-/// At most [`SAMPLES`] points spread evenly over the list (deterministic).
-fn spread(points: Vec<Vec3>) -> Vec<Vec3> {
-    if points.len() <= SAMPLES {
-        return points;
+/// At most [`SAMPLES`] items spread evenly over the list (deterministic).
+fn spread<T: Copy>(items: Vec<T>) -> Vec<T> {
+    if items.len() <= SAMPLES {
+        return items;
     }
-    let step = points.len() as f64 / SAMPLES as f64;
+    let step = items.len() as f64 / SAMPLES as f64;
     (0..SAMPLES)
-        .map(|i| points[(i as f64 * step) as usize])
+        .map(|i| items[(i as f64 * step) as usize])
         .collect()
 }

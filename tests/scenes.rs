@@ -35,3 +35,14 @@ fn crowd_rocker() {
 fn select_cow_head() {
     assert_finds_everything("select-cow-head", true);
 }
+
+#[test]
+fn fused_homer() {
+    assert_finds_everything("fused-homer", false);
+}
+
+#[test]
+fn cluttered_bunny() {
+    // Also: the two 0.75-scale decoys are not reported (they would be fp).
+    assert_finds_everything("cluttered-bunny", false);
+}

@@ -32,7 +32,8 @@
 //!   scale for every sphere, template size and scene, which is what lets one
 //!   threshold serve them all; it only grows with i (monotonic).
 
-use super::OnionDescriptor;
+use super::volume::Ball;
+use super::{ClutterPolicy, OnionDescriptor};
 use crate::exec::Backend;
 use crate::voxel::{Grid, Solid, level_for_radius};
 use std::f64::consts::PI;
@@ -526,6 +527,7 @@ pub struct HarmonicsDescriptor<'a> {
     radii: Vec<f64>,
     /// (R_j / voxel)^2 / k: see the module doc.
     weights: Vec<f64>,
+    clutter: Option<ClutterGuard<'a>>,
     template: Vec<Signature>,
     threshold: f64,
 }
@@ -556,9 +558,17 @@ impl<'a> HarmonicsDescriptor<'a> {
                 .iter()
                 .map(|r| (r / voxel).powi(2) / radii.len() as f64)
                 .collect(),
+            clutter: None,
             template,
             threshold,
         }
+    }
+
+    /// Excuses cluttered spheres (see [`super::clutter`]); without a guard
+    /// every sphere counts.
+    pub fn with_clutter(mut self, guard: ClutterGuard<'a>) -> Self {
+        self.clutter = Some(guard);
+        self
     }
 
     /// The signatures of one voxel of any solid at `radii` (world units):
@@ -585,8 +595,28 @@ impl<'a> HarmonicsDescriptor<'a> {
     }
 }
 
+/// What the harmonics stage needs to recognize clutter: the volume balls at
+/// its radii (bound to the scene) with the template's fractions, and the
+/// policy.
+pub struct ClutterGuard<'a> {
+    /// The policy.
+    pub policy: ClutterPolicy,
+    /// Balls at the stage's radii, bound to the scene's solid.
+    pub balls: &'a [Ball],
+    /// The template's solid fraction at each radius.
+    pub template: &'a [f64],
+}
+
+/// The running state of a point in the harmonics stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HarmonicsState {
+    sum2: f64,
+    /// A cluttered sphere was met: the rest are not compared.
+    excused: bool,
+}
+
 impl OnionDescriptor for HarmonicsDescriptor<'_> {
-    type State = f64;
+    type State = HarmonicsState;
 
     fn name(&self) -> &'static str {
         "harmonics"
@@ -604,19 +634,49 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         self.threshold
     }
 
-    fn start(&self, _point: u32) -> f64 {
-        0.0
+    fn start(&self, _point: u32) -> HarmonicsState {
+        HarmonicsState::default()
     }
 
-    fn extend(&self, point: u32, layer: usize, sum2: &mut f64) -> f64 {
-        let sig = describe_sphere(
-            self.solid,
-            self.points[point as usize],
-            &self.spheres[layer],
-            self.transform,
-        );
-        *sum2 += self.weights[layer] * signature_distance2(&sig, &self.template[layer]);
-        sum2.sqrt()
+    fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
+        if state.excused {
+            return state.sum2.sqrt();
+        }
+        let v = self.points[point as usize];
+        let guard = self
+            .clutter
+            .as_ref()
+            .filter(|g| g.policy.may_excuse_sphere(layer));
+        let cluttered_ball = guard.is_some_and(|g| {
+            g.balls[layer].fraction(self.solid, v) - g.template[layer] > g.policy.volume_tolerance
+        });
+        // Degree 0 of the signature is the sphere's mean occupancy.
+        let sig = (!cluttered_ball)
+            .then(|| describe_sphere(self.solid, v, &self.spheres[layer], self.transform));
+        let cluttered = cluttered_ball
+            || guard.is_some_and(|g| {
+                sig.is_some_and(|s| {
+                    (s[0] - self.template[layer][0]) as f64 > g.policy.sphere_tolerance
+                })
+            });
+        match sig {
+            Some(sig) if !cluttered => {
+                state.sum2 +=
+                    self.weights[layer] * signature_distance2(&sig, &self.template[layer]);
+                state.sum2.sqrt()
+            }
+            _ => {
+                state.excused = true;
+                // Compared over `layer` spheres only: their root mean square
+                // must meet the threshold (the weights carry 1 / k).
+                let rms = (state.sum2 * self.spheres.len() as f64 / layer as f64).sqrt();
+                if rms > self.threshold {
+                    f64::INFINITY
+                } else {
+                    state.sum2.sqrt()
+                }
+            }
+        }
     }
 }
 

@@ -8,9 +8,11 @@
 //! needs from one layer to the next in its own `State`: a running sum for the
 //! voxel descriptors, a growing neighbourhood for the curvature one.
 
+pub mod clutter;
 pub mod harmonics;
 pub mod volume;
 
+pub use clutter::ClutterPolicy;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::{Ball, VolumeDescriptor};
 

@@ -12,7 +12,7 @@
 //! are read the same way, so the small difference to an exact voxel count
 //! (tested below) cancels out of the comparison.
 
-use super::OnionDescriptor;
+use super::{ClutterPolicy, OnionDescriptor};
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::voxel::{Grid, Solid, level_for_radius};
@@ -316,6 +316,15 @@ pub struct VolumeDescriptor<'a> {
     radii: Vec<f64>,
     template: Vec<f64>,
     threshold: f64,
+    clutter: ClutterPolicy,
+}
+
+/// The running state of a point in the volume stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VolumeState {
+    sum: f64,
+    /// A cluttered layer was met: the rest are not compared.
+    excused: bool,
 }
 
 impl<'a> VolumeDescriptor<'a> {
@@ -329,7 +338,7 @@ impl<'a> VolumeDescriptor<'a> {
         threshold: f64,
         backend: Backend,
     ) -> Self {
-        let balls = Self::balls(solid, radii, backend);
+        let balls = Self::bound_balls(solid, radii, backend);
         Self::with_balls(solid, points, radii, balls, template, threshold)
     }
 
@@ -349,7 +358,25 @@ impl<'a> VolumeDescriptor<'a> {
             radii: radii.to_vec(),
             template,
             threshold,
+            clutter: ClutterPolicy::OFF,
         }
+    }
+
+    /// Excuses cluttered layers as `policy` says (see
+    /// [`super::clutter`]). Default: off.
+    pub fn with_clutter(mut self, policy: ClutterPolicy) -> Self {
+        self.clutter = policy;
+        self
+    }
+
+    /// The balls, bound to this stage's solid.
+    pub fn balls(&self) -> &[Ball] {
+        &self.balls
+    }
+
+    /// The template's fraction at each radius.
+    pub fn template(&self) -> &[f64] {
+        &self.template
     }
 
     /// The unbound balls for `radii` (world units) on voxels of `voxel_size`.
@@ -363,7 +390,7 @@ impl<'a> VolumeDescriptor<'a> {
             .collect()
     }
 
-    fn balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
+    fn bound_balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
         let voxel = solid.bits().spec().voxel_size;
         Self::unbound_balls(radii, voxel, backend)
             .into_iter()
@@ -374,7 +401,7 @@ impl<'a> VolumeDescriptor<'a> {
     /// The descriptor of one voxel of any solid with this stage's voxel size:
     /// what the template side computes.
     pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Backend) -> Vec<f64> {
-        Self::describe_with(solid, v, &Self::balls(solid, radii, backend))
+        Self::describe_with(solid, v, &Self::bound_balls(solid, radii, backend))
     }
 
     /// The descriptor of voxel `v` with balls bound to `solid`.
@@ -384,7 +411,7 @@ impl<'a> VolumeDescriptor<'a> {
 }
 
 impl OnionDescriptor for VolumeDescriptor<'_> {
-    type State = f64;
+    type State = VolumeState;
 
     fn name(&self) -> &'static str {
         "volume"
@@ -402,14 +429,26 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         self.threshold
     }
 
-    fn start(&self, _point: u32) -> f64 {
-        0.0
+    fn start(&self, _point: u32) -> VolumeState {
+        VolumeState::default()
     }
 
-    fn extend(&self, point: u32, layer: usize, sum: &mut f64) -> f64 {
-        let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
-        *sum += (f - self.template[layer]).abs();
-        *sum
+    fn extend(&self, point: u32, layer: usize, state: &mut VolumeState) -> f64 {
+        if !state.excused {
+            let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
+            let d = f - self.template[layer];
+            if d > self.clutter.volume_tolerance && self.clutter.may_excuse_ball(layer) {
+                state.excused = true;
+                // Compared over `layer` layers only: their share of the budget.
+                if state.sum > self.threshold * ClutterPolicy::volume_share(layer, self.balls.len())
+                {
+                    return f64::INFINITY;
+                }
+            } else {
+                state.sum += d.abs();
+            }
+        }
+        state.sum
     }
 }
 
