@@ -7,7 +7,7 @@
 //! 1. [`local_bests`]: the best point (smallest distance) of each blob, by a
 //!    greedy suppression at a small radius;
 //! 2. each local best is verified ([`crate::verify`]): the template placed
-//!    there with a proper rotation must overlap the scene;
+//!    there with a proper rotation must lie on the scene's surface;
 //! 3. [`group`]: among the verified points, the best placement founds an
 //!    instance, reported where the placement puts the template's point c_T,
 //!    and claims every other placement within the template's outer radius
@@ -25,7 +25,8 @@ pub struct Instance {
     pub position: [f64; 3],
     /// Its final descriptor distance.
     pub distance: f64,
-    /// Verification score: overlap of the placed template and the scene (0..1).
+    /// Verification score: the placed template's surface agreement with the
+    /// scene (0..1).
     pub score: f64,
     /// How many surviving points the instance gathered.
     pub support: usize,

@@ -79,7 +79,7 @@ pub struct MatchOptions {
     pub group_radius: f64,
     /// Verification: the least share of the template's surface that must
     /// land on the scene's surface when the template is placed at a point
-    /// (0..1). Default: 0.75.
+    /// (0..1), after the pose is refined. Default: 0.85.
     pub verify_threshold: f64,
     /// When extra material (other objects) excuses the outer layers; see
     /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
@@ -98,7 +98,7 @@ impl MatchOptions {
         volume_threshold: 0.12,
         harmonics_threshold: 0.8,
         group_radius: 1.0,
-        verify_threshold: 0.75,
+        verify_threshold: 0.85,
         clutter: ClutterPolicy::DEFAULT,
         backend: Backend::Parallel,
         max_grid_bytes: 2 << 30,
@@ -118,11 +118,16 @@ impl MatchOptions {
         positive("volume threshold", self.volume_threshold)?;
         positive("harmonics threshold", self.harmonics_threshold)?;
         positive("group radius", self.group_radius)?;
-        if !(0.0..=1.0).contains(&self.verify_threshold) {
-            return Err(Error::invalid_option(
-                "verify threshold",
-                format!("must lie in 0..=1, got {}", self.verify_threshold),
-            ));
+        for (name, share) in [
+            ("verify threshold", self.verify_threshold),
+            ("hidden surface", self.clutter.hidden_surface),
+        ] {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(Error::invalid_option(
+                    name,
+                    format!("must lie in 0..=1, got {share}"),
+                ));
+            }
         }
         if !(1..=64).contains(&self.layers) {
             return Err(Error::invalid_option(
@@ -232,7 +237,7 @@ impl fmt::Display for MatchReport {
             let p = inst.position;
             writeln!(
                 f,
-                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}  overlap {:.3}  support {}",
+                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}  agreement {:.3}  support {}",
                 i + 1,
                 p[0],
                 p[1],
@@ -327,6 +332,9 @@ pub fn search(
         tvoxel,
         template.center_offset(scene),
         &radii_voxels,
+        options
+            .clutter
+            .hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
         backend,
     );
     let verified: Vec<Verified> = backend

@@ -26,10 +26,20 @@
 //! - `overlap`: intersection over union of template and scene within that
 //!   clean ball, where both must agree;
 //! - `surface`: the share of the template's surface, over its whole extent,
-//!   that lands within a voxel of the scene's surface. Material added by
-//!   neighbours hides only the part of the surface it touches, while a
-//!   template sunk into a solid, floating in space, wrongly turned or at the
-//!   wrong scale misses most of it.
+//!   that lands within a voxel of the scene's surface. Samples landing
+//!   inside the scene's solid are hidden by added material (a neighbour, the
+//!   ground) and count neither way, up to a limit: a template pushed into a
+//!   solid hides most of itself. Samples landing in empty space are missing
+//!   material and count against: a template floating in space, wrongly
+//!   turned or at the wrong scale misses most of its surface.
+//!
+//! A frame read from moments is off by a degree or two, which at the
+//! template's rim is more than the one voxel the surface test allows, so the
+//! best pose is refined by hill-climbing small rotations and shifts. A true
+//! occurrence then agrees almost everywhere (0.99-1.0 on the shared and
+//! held-out scenes, about 0.9 on figures twisted by 30 degrees), while the
+//! best wrong placements found reach 0.75-0.8: the default threshold, 0.85,
+//! sits between.
 
 use crate::descriptor::volume::Ball;
 use crate::exec::Backend;
@@ -41,6 +51,15 @@ const SAMPLES: usize = 4096;
 
 /// Blocks per radius for the moments.
 const MOMENT_BLOCKS: f64 = 10.0;
+
+/// First rotation step of the pose refinement (radians, about 2 degrees).
+const REFINE_ANGLE: f64 = 0.035;
+
+/// Placements scoring less than this before refinement are not refined.
+const REFINE_FROM: f64 = 0.4;
+
+/// Refinement counts every this many surface samples per trial pose.
+const REFINE_STRIDE: usize = 2;
 
 /// Scores closer than this are a tie between placements.
 const TIE: f64 = 0.02;
@@ -65,6 +84,8 @@ pub struct Verifier {
     surface: Vec<Vec3>,
     /// c_T relative to the anchor, in voxels.
     target: Vec3,
+    /// The largest share of the surface other material may hide.
+    max_hidden: f64,
 }
 
 /// The outcome of one check.
@@ -74,6 +95,8 @@ pub struct Placement {
     pub overlap: f64,
     /// Share of the template's surface that lands on the scene's surface.
     pub surface: f64,
+    /// Share of the template's surface buried in the scene's solid.
+    pub buried: f64,
     /// Share of the template's solid that the scene covers.
     pub covered: f64,
     /// Radius of the ball the frame came from (voxels).
@@ -96,11 +119,13 @@ impl Verifier {
     /// Prepares the template whose descriptors are taken at voxel `anchor` of
     /// `solid`; `target` is c_T relative to the anchor's centre and `radii`
     /// the layer radii, all in voxels (the last is the template's extent).
+    /// Up to `max_hidden` of its surface may land inside the scene's solid.
     pub fn new(
         solid: &Solid,
         anchor: [u16; 3],
         target: Vec3,
         radii: &[f64],
+        max_hidden: f64,
         backend: Backend,
     ) -> Verifier {
         let balls: Vec<Ball> = radii
@@ -161,6 +186,7 @@ impl Verifier {
             empty: spread(empty_pts),
             surface: spread(surface_pts),
             target,
+            max_hidden,
         }
     }
 
@@ -225,14 +251,10 @@ impl Verifier {
                 });
             }
         }
+        let bits = solid.bits();
         let agreement = |pose: &Pose, stride: usize| {
-            let hits = self
-                .surface
-                .iter()
-                .step_by(stride)
-                .filter(|a| pose.lands(near_surface, vi, **a))
-                .count();
-            hits as f64 / self.surface.len().div_ceil(stride).max(1) as f64
+            self.surface_counts(near_surface, bits, vi, pose, stride)
+                .score(self.max_hidden)
         };
         let rough: Vec<f64> = poses.iter().map(|p| agreement(p, 16)).collect();
         let best_rough = rough.iter().copied().fold(0.0, f64::max);
@@ -254,7 +276,14 @@ impl Verifier {
             }
         }
         let (surface, pose) = best.expect("at least one pose");
-        let bits = solid.bits();
+        // Refinement gains up to 0.4 on a true placement; below that there
+        // is nothing worth the time.
+        let pose = &if surface >= REFINE_FROM {
+            self.refine(near_surface, bits, vi, pose).1
+        } else {
+            *pose
+        };
+        let counts = self.surface_counts(near_surface, bits, vi, pose, 1);
         let (mut inside, mut inside_hit, mut all_hit) = (0usize, 0usize, 0usize);
         for &(a, d) in &self.solid {
             let hit = pose.lands(bits, vi, a);
@@ -278,7 +307,8 @@ impl Verifier {
             } else {
                 0.0
             },
-            surface,
+            surface: counts.score(self.max_hidden),
+            buried: counts.buried as f64 / counts.total.max(1) as f64,
             covered: all_hit as f64 / self.solid.len().max(1) as f64,
             frame_radius: pose.frame_radius,
             rotation: pose.rows,
@@ -287,7 +317,99 @@ impl Verifier {
     }
 }
 
+impl Verifier {
+    /// Counts where every `stride`-th surface sample lands.
+    fn surface_counts(
+        &self,
+        near_surface: &Grid,
+        bits: &Grid,
+        v: [i64; 3],
+        pose: &Pose,
+        stride: usize,
+    ) -> SurfaceCounts {
+        let mut counts = SurfaceCounts {
+            hits: 0,
+            buried: 0,
+            total: 0,
+        };
+        for a in self.surface.iter().step_by(stride) {
+            counts.total += 1;
+            if pose.lands(near_surface, v, *a) {
+                counts.hits += 1;
+            } else if pose.lands(bits, v, *a) {
+                counts.buried += 1;
+            }
+        }
+        counts
+    }
+
+    /// Hill-climbs the pose by small rotations (about the placed centroid)
+    /// and shifts while the surface agreement grows: a frame read from a
+    /// ball's moments is off by a degree or two, which at the template's
+    /// rim is more than the one voxel the agreement allows.
+    fn refine(&self, near_surface: &Grid, bits: &Grid, v: [i64; 3], start: &Pose) -> (f64, Pose) {
+        let score = |p: &Pose| {
+            self.surface_counts(near_surface, bits, v, p, REFINE_STRIDE)
+                .score(self.max_hidden)
+        };
+        let mut pose = Pose { ..*start };
+        let mut best = score(&pose);
+        let mut angle = REFINE_ANGLE;
+        let mut step = 1.0;
+        while angle >= REFINE_ANGLE / 8.0 {
+            let pivot = pose.shift;
+            let mut improved = false;
+            for axis in 0..3 {
+                for sign in [-1.0, 1.0] {
+                    let turned = pose.turned(axis, sign * angle, pivot);
+                    let mut shift = [0.0; 3];
+                    shift[axis] = sign * step;
+                    let moved = Pose {
+                        shift: pose.shift + Vec3::new(shift[0], shift[1], shift[2]),
+                        ..pose
+                    };
+                    for cand in [turned, moved] {
+                        let s = score(&cand);
+                        if s > best {
+                            best = s;
+                            pose = cand;
+                            improved = true;
+                        }
+                    }
+                }
+            }
+            if !improved {
+                angle /= 2.0;
+                step /= 2.0;
+            }
+        }
+        (best, pose)
+    }
+}
+
+/// Where the template's surface samples land in a placement.
+struct SurfaceCounts {
+    /// On the scene's surface.
+    hits: usize,
+    /// Inside the scene's solid: hidden by extra material.
+    buried: usize,
+    /// All samples counted.
+    total: usize,
+}
+
+impl SurfaceCounts {
+    /// The agreement: buried samples count neither way, unless more than
+    /// `max_hidden` of them are.
+    fn score(&self, max_hidden: f64) -> f64 {
+        if self.total == 0 || self.buried as f64 > max_hidden * self.total as f64 {
+            return 0.0;
+        }
+        self.hits as f64 / (self.total - self.buried).max(1) as f64
+    }
+}
+
 /// A candidate placement: rotation (rows) and shift, in voxels.
+#[derive(Clone, Copy)]
 struct Pose {
     rows: [Vec3; 3],
     shift: Vec3,
@@ -295,6 +417,32 @@ struct Pose {
 }
 
 impl Pose {
+    /// The pose turned by `angle` about coordinate `axis` through `pivot`.
+    fn turned(&self, axis: usize, angle: f64, pivot: Vec3) -> Pose {
+        let (s, c) = angle.sin_cos();
+        let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+        let turn = |p: Vec3| {
+            let mut q = [p.x, p.y, p.z];
+            let (a, b) = (q[i], q[j]);
+            q[i] = c * a - s * b;
+            q[j] = s * a + c * b;
+            Vec3::new(q[0], q[1], q[2])
+        };
+        // Rows of R' = T R: column k of R' is T applied to column k of R.
+        let col = |k: usize| turn(Vec3::new(self.rows[0][k], self.rows[1][k], self.rows[2][k]));
+        let cols = [col(0), col(1), col(2)];
+        let rows = [
+            Vec3::new(cols[0].x, cols[1].x, cols[2].x),
+            Vec3::new(cols[0].y, cols[1].y, cols[2].y),
+            Vec3::new(cols[0].z, cols[1].z, cols[2].z),
+        ];
+        Pose {
+            rows,
+            shift: turn(self.shift - pivot) + pivot,
+            frame_radius: self.frame_radius,
+        }
+    }
+
     /// Whether template offset `a` lands on a set voxel of `g`, around voxel `v`.
     fn lands(&self, g: &Grid, v: [i64; 3], a: Vec3) -> bool {
         let q = rotate_with(&self.rows, a) + self.shift;

@@ -62,6 +62,14 @@ struct MatchArgs {
     /// Harmonics stage threshold (voxels of equivalent deviation).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.harmonics_threshold)]
     harmonics_threshold: f64,
+    /// Verification: least share of the template's visible surface that must
+    /// lie on the scene's surface (0..1).
+    #[arg(long, default_value_t = MatchOptions::DEFAULT.verify_threshold)]
+    verify_threshold: f64,
+    /// Verification: largest share of a model template's surface that other
+    /// material may hide (0..1).
+    #[arg(long, default_value_t = MatchOptions::DEFAULT.clutter.hidden_surface)]
+    hidden_surface: f64,
     /// Print the result as one JSON object.
     #[arg(long)]
     json: bool,
@@ -94,6 +102,8 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     options.layers = args.layers;
     options.volume_threshold = args.volume_threshold;
     options.harmonics_threshold = args.harmonics_threshold;
+    options.verify_threshold = args.verify_threshold;
+    options.clutter.hidden_surface = args.hidden_surface;
     options.backend = backend;
     let scene_options = SceneOptions::DEFAULT
         .with_resolution(args.resolution)

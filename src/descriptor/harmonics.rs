@@ -528,6 +528,8 @@ pub struct HarmonicsDescriptor<'a> {
     /// (R_j / voxel)^2 / k: see the module doc.
     weights: Vec<f64>,
     clutter: Option<ClutterGuard<'a>>,
+    /// Leading spheres that always count (see [`super::clutter`]).
+    clean_layers: usize,
     template: Vec<Signature>,
     threshold: f64,
 }
@@ -559,6 +561,7 @@ impl<'a> HarmonicsDescriptor<'a> {
                 .map(|r| (r / voxel).powi(2) / radii.len() as f64)
                 .collect(),
             clutter: None,
+            clean_layers: usize::MAX,
             template,
             threshold,
         }
@@ -567,6 +570,9 @@ impl<'a> HarmonicsDescriptor<'a> {
     /// Excuses cluttered spheres (see [`super::clutter`]); without a guard
     /// every sphere counts.
     pub fn with_clutter(mut self, guard: ClutterGuard<'a>) -> Self {
+        let voxel = self.solid.bits().spec().voxel_size;
+        let radii_voxels: Vec<f64> = self.radii.iter().map(|r| r / voxel).collect();
+        self.clean_layers = guard.policy.clean_layers(&radii_voxels);
         self.clutter = Some(guard);
         self
     }
@@ -643,10 +649,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
             return state.sum2.sqrt();
         }
         let v = self.points[point as usize];
-        let guard = self
-            .clutter
-            .as_ref()
-            .filter(|g| g.policy.may_excuse_sphere(layer));
+        let guard = self.clutter.as_ref().filter(|_| layer >= self.clean_layers);
         let cluttered_ball = guard.is_some_and(|g| {
             g.balls[layer].fraction(self.solid, v) - g.template[layer] > g.policy.volume_tolerance
         });

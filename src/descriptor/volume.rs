@@ -317,6 +317,8 @@ pub struct VolumeDescriptor<'a> {
     template: Vec<f64>,
     threshold: f64,
     clutter: ClutterPolicy,
+    /// Leading layers that always count (see [`super::clutter`]).
+    clean_layers: usize,
 }
 
 /// The running state of a point in the volume stage.
@@ -359,12 +361,16 @@ impl<'a> VolumeDescriptor<'a> {
             template,
             threshold,
             clutter: ClutterPolicy::OFF,
+            clean_layers: usize::MAX,
         }
     }
 
     /// Excuses cluttered layers as `policy` says (see
     /// [`super::clutter`]). Default: off.
     pub fn with_clutter(mut self, policy: ClutterPolicy) -> Self {
+        let voxel = self.solid.bits().spec().voxel_size;
+        let radii_voxels: Vec<f64> = self.radii.iter().map(|r| r / voxel).collect();
+        self.clean_layers = policy.clean_layers(&radii_voxels);
         self.clutter = policy;
         self
     }
@@ -437,7 +443,7 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         if !state.excused {
             let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
             let d = f - self.template[layer];
-            if d > self.clutter.volume_tolerance && self.clutter.may_excuse_ball(layer) {
+            if d > self.clutter.volume_tolerance && layer >= self.clean_layers {
                 state.excused = true;
                 // Compared over `layer` layers only: their share of the budget.
                 if state.sum > self.threshold * ClutterPolicy::volume_share(layer, self.balls.len())
