@@ -9,10 +9,12 @@
 //! voxel descriptors, a growing neighbourhood for the curvature one.
 
 pub mod clutter;
+pub mod curvature;
 pub mod harmonics;
 pub mod volume;
 
 pub use clutter::ClutterPolicy;
+pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::{Ball, VolumeDescriptor};
 
