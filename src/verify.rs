@@ -20,13 +20,11 @@
 //! candidate points also absorbs the voxel or two by which the best candidate
 //! misses c_T.
 //!
-//! The frame is taken from the largest ball the cascade found clean (no
-//! material beyond the template's): other objects fused to or touching the
-//! occurrence would bend it otherwise. The placement is scored by
-//! - `overlap`: intersection over union of template and scene within that
-//!   clean ball, where both must agree;
-//! - `surface`: the share of the template's surface, over its whole extent,
-//!   that lands within a voxel of the scene's surface. Samples landing
+//! Other objects fused to or touching the occurrence bend the frame of any
+//! ball they reach, and which balls they reach is unknown: so the frame of
+//! every layer's ball is tried, and a bent frame cannot fake a good score.
+//! The placement is scored by the share of the template's surface, over its
+//! whole extent, that lands within a voxel of the scene's surface. Samples landing
 //!   inside the scene's solid are hidden by added material (a neighbour, the
 //!   ground) and count neither way, up to a limit: a template pushed into a
 //!   solid hides most of itself. Samples landing in empty space are missing
@@ -46,7 +44,7 @@ use crate::exec::Backend;
 use crate::math::{Vec3, symmetric_eigen};
 use crate::voxel::{Grid, Solid, level_for_radius, skin};
 
-/// Samples of each kind (solid, empty, surface) taken from the template.
+/// Surface samples taken from the template.
 const SAMPLES: usize = 4096;
 
 /// Blocks per radius for the moments.
@@ -78,9 +76,7 @@ pub struct Verifier {
     balls: Vec<Ball>,
     /// The template's frame in each of them.
     frames: Vec<Frame>,
-    /// Template samples relative to the anchor (voxels), with their distance.
-    solid: Vec<(Vec3, f64)>,
-    empty: Vec<(Vec3, f64)>,
+    /// Template surface samples relative to the anchor (voxels).
     surface: Vec<Vec3>,
     /// c_T relative to the anchor, in voxels.
     target: Vec3,
@@ -91,16 +87,10 @@ pub struct Verifier {
 /// The outcome of one check.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {
-    /// Intersection over union of template and scene within the clean ball.
-    pub overlap: f64,
     /// Share of the template's surface that lands on the scene's surface.
     pub surface: f64,
     /// Share of the template's surface buried in the scene's solid.
     pub buried: f64,
-    /// Share of the template's solid that the scene covers.
-    pub covered: f64,
-    /// Radius of the ball the frame came from (voxels).
-    pub frame_radius: f64,
     /// Rotation from template to scene (rows).
     pub rotation: [Vec3; 3],
     /// Where the template's point c_T lands, relative to the checked voxel
@@ -140,33 +130,7 @@ impl Verifier {
             .map(|b| local_frame(b, solid, anchor))
             .collect();
         let radius = *radii.last().expect("at least one layer");
-        // A sub-lattice of the ball, fine enough for about SAMPLES points of
-        // each kind: sampling beats scanning millions of voxels.
-        let volume = 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
-        let step = ((volume / (2 * SAMPLES) as f64).cbrt().floor() as i64).max(1);
-        let (mut solid_pts, mut empty_pts) = (Vec::new(), Vec::new());
-        let e = radius.floor() as i64 / step * step;
         let bits = solid.bits();
-        for dz in (-e..=e).step_by(step as usize) {
-            for dy in (-e..=e).step_by(step as usize) {
-                for dx in (-e..=e).step_by(step as usize) {
-                    let d = ((dx * dx + dy * dy + dz * dz) as f64).sqrt();
-                    if d > radius {
-                        continue;
-                    }
-                    let v = Vec3::new(dx as f64, dy as f64, dz as f64);
-                    if bits.get(
-                        anchor[0] as i64 + dx,
-                        anchor[1] as i64 + dy,
-                        anchor[2] as i64 + dz,
-                    ) {
-                        solid_pts.push((v, d));
-                    } else {
-                        empty_pts.push((v, d));
-                    }
-                }
-            }
-        }
         let a = anchor.map(|c| c as i64);
         let surface_pts: Vec<Vec3> = skin(bits)
             .iter_ones()
@@ -182,50 +146,22 @@ impl Verifier {
         Verifier {
             balls,
             frames,
-            solid: spread(solid_pts),
-            empty: spread(empty_pts),
             surface: spread(surface_pts),
             target,
             max_hidden,
         }
     }
 
-    /// Places the template at voxel `v` of the scene `solid` with the frames
-    /// of every layer's ball and keeps the best placement: which balls other
-    /// objects reach is unknown, and a frame bent by them cannot fake a good
-    /// surface agreement. `near_surface` is the scene's skin grown by a voxel.
+    /// Places the template at voxel `v` of the scene `solid` with the frame
+    /// of every layer's ball and keeps the best placement. Poses are ranked
+    /// by surface agreement on every 16th surface sample first; only those
+    /// within reach of the best are counted in full, and the winner is
+    /// refined. `near_surface` is the scene's skin grown by a voxel.
     pub fn check(&self, solid: &Solid, near_surface: &Grid, v: [u16; 3]) -> Placement {
-        self.best_of(solid, near_surface, v, 0..self.balls.len())
-    }
-
-    /// Like [`Verifier::check`], with the frame of one layer's ball (1-based).
-    pub fn check_layer(
-        &self,
-        solid: &Solid,
-        near_surface: &Grid,
-        v: [u16; 3],
-        layer: usize,
-    ) -> Placement {
-        let layer = layer.clamp(1, self.balls.len()) - 1;
-        self.best_of(solid, near_surface, v, layer..layer + 1)
-    }
-
-    /// The best placement from the frames of `layers` (0-based). Poses are
-    /// ranked by surface agreement on every 16th surface sample first; only
-    /// those within reach of the best are counted in full, and the volume
-    /// agreement is counted for the winner alone.
-    fn best_of(
-        &self,
-        solid: &Solid,
-        near_surface: &Grid,
-        v: [u16; 3],
-        layers: std::ops::Range<usize>,
-    ) -> Placement {
         let vi = v.map(|c| c as i64);
-        let mut poses = Vec::with_capacity(4 * layers.len());
-        for layer in layers {
-            let ball = &self.balls[layer];
-            let (ft, fs) = (&self.frames[layer], local_frame(ball, solid, v));
+        let mut poses = Vec::with_capacity(4 * self.balls.len());
+        for (ball, ft) in self.balls.iter().zip(&self.frames) {
+            let fs = local_frame(ball, solid, v);
             let handed = det(&ft.axes) * det(&fs.axes);
             // Axis signs whose product makes det(R) = +1.
             for signs in [
@@ -244,11 +180,7 @@ impl Verifier {
                 }
                 // Centroids coincide: q = c_S + R (a - c_T).
                 let shift = fs.centroid - rotate_with(&rows, ft.centroid);
-                poses.push(Pose {
-                    rows,
-                    shift,
-                    frame_radius: ball.radius(),
-                });
+                poses.push(Pose { rows, shift });
             }
         }
         let bits = solid.bits();
@@ -284,40 +216,14 @@ impl Verifier {
             *pose
         };
         let counts = self.surface_counts(near_surface, bits, vi, pose, 1);
-        let (mut inside, mut inside_hit, mut all_hit) = (0usize, 0usize, 0usize);
-        for &(a, d) in &self.solid {
-            let hit = pose.lands(bits, vi, a);
-            all_hit += hit as usize;
-            if d <= pose.frame_radius {
-                inside += 1;
-                inside_hit += hit as usize;
-            }
-        }
-        let extra = self
-            .empty
-            .iter()
-            .filter(|(a, d)| *d <= pose.frame_radius && pose.lands(bits, vi, *a))
-            .count();
-        // Within the frame's ball, as volumes: both lists sample it on the
-        // same lattice.
-        let union = inside + extra;
         Placement {
-            overlap: if union > 0 {
-                inside_hit as f64 / union as f64
-            } else {
-                0.0
-            },
             surface: counts.score(self.max_hidden),
             buried: counts.buried as f64 / counts.total.max(1) as f64,
-            covered: all_hit as f64 / self.solid.len().max(1) as f64,
-            frame_radius: pose.frame_radius,
             rotation: pose.rows,
             offset: pose.shift + rotate_with(&pose.rows, self.target),
         }
     }
-}
 
-impl Verifier {
     /// Counts where every `stride`-th surface sample lands.
     fn surface_counts(
         &self,
@@ -413,7 +319,6 @@ impl SurfaceCounts {
 struct Pose {
     rows: [Vec3; 3],
     shift: Vec3,
-    frame_radius: f64,
 }
 
 impl Pose {
@@ -439,7 +344,6 @@ impl Pose {
         Pose {
             rows,
             shift: turn(self.shift - pivot) + pivot,
-            frame_radius: self.frame_radius,
         }
     }
 

@@ -41,6 +41,9 @@ pub struct CurvatureDescriptor<'a> {
 
 /// The neighbourhood of one vertex, grown layer by layer.
 pub struct CurvatureState {
+    /// The surface normal at the vertex: every layer's tensor is read in
+    /// its tangent plane.
+    normal: Vec3,
     /// Region triangles wholly inside the last ball: their sums are final.
     interior: Sums,
     /// Region triangles cut by the last ball: summed again each layer.
@@ -82,7 +85,7 @@ impl<'a> CurvatureDescriptor<'a> {
     /// The Gaussian curvature of `surface` at vertex `v` for every radius:
     /// the template's descriptor, computed the same way as the scene's.
     pub fn describe(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
-        let mut state = CurvatureState::new();
+        let mut state = CurvatureState::at(surface, v);
         radii
             .iter()
             .map(|&r| gaussian_curvature(surface, v, r, &mut state))
@@ -91,8 +94,9 @@ impl<'a> CurvatureDescriptor<'a> {
 }
 
 impl CurvatureState {
-    fn new() -> CurvatureState {
+    fn at(surface: &Surface, v: u32) -> CurvatureState {
         CurvatureState {
+            normal: surface.vertex_normal(v),
             interior: Sums::default(),
             cut: Vec::new(),
             seen: FxHashSet::default(),
@@ -121,8 +125,8 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
         self.threshold
     }
 
-    fn start(&self, _point: u32) -> CurvatureState {
-        CurvatureState::new()
+    fn start(&self, point: u32) -> CurvatureState {
+        CurvatureState::at(self.surface, point)
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut CurvatureState) -> f64 {
@@ -137,7 +141,7 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
 /// returns the Gaussian curvature there (0 where the ball holds no area).
 fn gaussian_curvature(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> f64 {
     let c = surface.position(v);
-    let normal = surface.vertex_normal(v);
+    let normal = state.normal;
     let fresh = grow(surface, c, v, r, state);
     // Triangles cut by the last ball and new ones: those now wholly inside
     // join the final sums, the rest are counted for this ball only.
