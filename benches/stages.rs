@@ -6,6 +6,9 @@
 //! from a busy machine stay comparable. `cargo bench --bench stages -- NAME`
 //! runs the scenes whose names contain NAME. The scenes come from
 //! `../shared/scenes`; the default parameters are used throughout.
+//! `FAST_REJECT_BENCH_DESCRIPTOR=curvature` measures the curvature
+//! descriptor instead of volume+harmonics, with the cost per candidate of
+//! every layer (how it grows with the radius).
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -15,7 +18,7 @@ use std::path::Path;
 use fast_reject::clock::now_ms;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
-use fast_reject::search::{MatchOptions, MatchReport, search};
+use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
 
 /// (scene, true for a selection query)
 const SCENES: [(&str, bool); 7] = [
@@ -39,12 +42,17 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(3)
         .max(1);
+    let mut options = MatchOptions::DEFAULT;
+    if let Ok(name) = std::env::var("FAST_REJECT_BENCH_DESCRIPTOR") {
+        options.descriptor = name.parse().expect("a descriptor name");
+    }
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
     println!(
-        "threads: {}, runs per scene: {runs} (fastest shown)\n",
+        "descriptor: {}, threads: {}, runs per scene: {runs} (fastest shown)\n",
+        options.descriptor,
         rayon::current_num_threads()
     );
     let mut summary = Vec::new();
@@ -53,11 +61,15 @@ fn main() {
             continue;
         }
         let best = (0..runs)
-            .map(|_| run(name, select))
+            .map(|_| run(name, select, &options))
             .min_by(|a, b| a.timings.total.total_cmp(&b.timings.total))
             .unwrap();
         print_scene(name, &best);
         summary.push((name, best));
+    }
+    if options.descriptor == DescriptorKind::Curvature {
+        curvature_tables(&summary);
+        return;
     }
     println!(
         "| scene | skin voxels | load | voxelize | template | match | group | total (ms) | instances |"
@@ -67,7 +79,7 @@ fn main() {
         let t = &r.timings;
         println!(
             "| {name} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
-            r.grid.skin_voxels,
+            r.grid.as_ref().map_or(0, |g| g.skin_voxels),
             t.load,
             t.voxelize,
             t.template,
@@ -79,7 +91,46 @@ fn main() {
     }
 }
 
-fn run(name: &str, select: bool) -> MatchReport {
+/// The stage table, then microseconds per candidate for each layer.
+fn curvature_tables(summary: &[(&str, MatchReport)]) {
+    println!(
+        "| scene | vertices | load | weld | template | match | group | total (ms) | instances |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, r) in summary {
+        let t = &r.timings;
+        println!(
+            "| {name} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
+            r.surface.as_ref().map_or(0, |s| s.vertices),
+            t.load,
+            t.surface,
+            t.template,
+            t.match_,
+            t.group,
+            t.total,
+            r.instances.len()
+        );
+    }
+    let layers = summary
+        .iter()
+        .map(|(_, r)| r.stages.len())
+        .max()
+        .unwrap_or(0);
+    print!("\n| scene (us per candidate) |");
+    for l in 1..=layers {
+        print!(" layer {l} |");
+    }
+    println!("\n|---|{}", "---:|".repeat(layers));
+    for (name, r) in summary {
+        print!("| {name} |");
+        for s in &r.stages {
+            print!(" {:.0} |", 1000.0 * s.ms / s.candidates.max(1) as f64);
+        }
+        println!();
+    }
+}
+
+fn run(name: &str, select: bool, options: &MatchOptions) -> MatchReport {
     let start = now_ms();
     let scene_mesh = load(
         &std::fs::read(common::scene_dir(name).join("scene.glb")).unwrap(),
@@ -89,7 +140,7 @@ fn run(name: &str, select: bool) -> MatchReport {
     let source = common::template(name, select);
     let load_ms = now_ms() - start;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
-    let mut report = search(&scene, &source, &MatchOptions::DEFAULT, &mut ()).unwrap();
+    let mut report = search(&scene, &source, options, &mut ()).unwrap();
     report.timings.load = load_ms;
     report.timings.sum();
     report

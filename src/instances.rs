@@ -26,8 +26,9 @@ pub struct Instance {
     /// Its final descriptor distance.
     pub distance: f64,
     /// Verification score: the placed template's surface agreement with the
-    /// scene (0..1).
-    pub score: f64,
+    /// scene (0..1); None where the descriptor has no verification
+    /// (curvature).
+    pub score: Option<f64>,
     /// How many surviving points the instance gathered.
     pub support: usize,
 }
@@ -95,7 +96,7 @@ pub fn group(
                 Instance {
                     position: p.to_array(),
                     distance: v.survivor.distance,
-                    score: v.score,
+                    score: Some(v.score),
                     support: 0,
                 },
             ));

@@ -1,12 +1,16 @@
-//! A scene ready to search: its mesh, its solid voxel grid and the candidate
-//! points (skin voxels). Built once, searched any number of times.
+//! A scene ready to search: its mesh and, built on first use, what each
+//! descriptor reads: the solid voxel grid and its skin voxels (the volume and
+//! harmonics candidates), or the welded surface (the curvature candidates).
+//! Built once, searched any number of times.
 
 use crate::clock::now_ms;
 use crate::error::Result;
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
+use crate::mesh::surface::Surface;
 use crate::voxel::{Grid, GridSpec, Solid, dilate, skin, voxelize};
+use std::sync::OnceLock;
 
 /// How to voxelize a scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,33 +62,53 @@ impl Default for SceneOptions {
 /// near surface).
 pub(crate) const GRIDS_IN_FLIGHT: u64 = 5;
 
-/// A voxelized scene.
+/// A scene to search.
 pub struct Scene {
     mesh: TriMesh,
+    spec: GridSpec,
+    resolution: u32,
+    backend: Backend,
+    voxels: OnceLock<Voxels>,
+    surface: OnceLock<(Surface, f64)>,
+}
+
+/// The voxelized scene.
+struct Voxels {
     solid: Solid,
     skin: Vec<[u16; 3]>,
     near_surface: Grid,
-    resolution: u32,
     voxelize_ms: f64,
 }
 
 impl Scene {
-    /// Voxelizes `mesh`.
+    /// Prepares `mesh` for searching; checks now that its grid fits in
+    /// memory, and voxelizes on first use.
     pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
-        let start = now_ms();
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
         spec.check_memory(GRIDS_IN_FLIGHT, options.max_grid_bytes, options.resolution)?;
-        let grid = voxelize(&mesh, &spec, options.backend);
-        let skin_grid = skin(&grid);
-        let near_surface = dilate(&skin_grid);
-        let skin = skin_grid.iter_ones().collect();
         Ok(Scene {
             mesh,
-            solid: Solid::new(grid),
-            skin,
-            near_surface,
+            spec,
             resolution: options.resolution,
-            voxelize_ms: now_ms() - start,
+            backend: options.backend,
+            voxels: OnceLock::new(),
+            surface: OnceLock::new(),
+        })
+    }
+
+    fn voxels(&self) -> &Voxels {
+        self.voxels.get_or_init(|| {
+            let start = now_ms();
+            let grid = voxelize(&self.mesh, &self.spec, self.backend);
+            let skin_grid = skin(&grid);
+            let near_surface = dilate(&skin_grid);
+            let skin = skin_grid.iter_ones().collect();
+            Voxels {
+                solid: Solid::new(grid),
+                skin,
+                near_surface,
+                voxelize_ms: now_ms() - start,
+            }
         })
     }
 
@@ -93,44 +117,62 @@ impl Scene {
         &self.mesh
     }
 
+    /// The welded surface with its adjacency (built on first use).
+    pub fn surface(&self) -> &Surface {
+        &self
+            .surface
+            .get_or_init(|| {
+                let start = now_ms();
+                let surface = Surface::new(&self.mesh);
+                (surface, now_ms() - start)
+            })
+            .0
+    }
+
     /// The solid bit grid.
     pub fn grid(&self) -> &Grid {
-        self.solid.bits()
+        self.solid().bits()
     }
 
     /// The solid with its count pyramid.
     pub fn solid(&self) -> &Solid {
-        &self.solid
+        &self.voxels().solid
     }
 
     /// The candidate points: skin voxels in z, y, x order.
     pub fn skin(&self) -> &[[u16; 3]] {
-        &self.skin
+        &self.voxels().skin
     }
 
     /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
     pub fn near_surface(&self) -> &Grid {
-        &self.near_surface
+        &self.voxels().near_surface
     }
 
-    /// The resolution it was voxelized at.
+    /// The resolution it is voxelized at.
     pub fn resolution(&self) -> u32 {
         self.resolution
     }
 
     /// Edge length of a voxel in world units.
     pub fn voxel_size(&self) -> f64 {
-        self.grid().spec().voxel_size
+        self.spec.voxel_size
     }
 
-    /// How long voxelization took, in milliseconds.
+    /// How long voxelization took, in milliseconds (0 if not voxelized).
     pub fn voxelize_ms(&self) -> f64 {
-        self.voxelize_ms
+        self.voxels.get().map_or(0.0, |v| v.voxelize_ms)
+    }
+
+    /// How long building the welded surface took, in milliseconds (0 if
+    /// not built).
+    pub fn surface_ms(&self) -> f64 {
+        self.surface.get().map_or(0.0, |s| s.1)
     }
 
     /// World position of candidate point `i`.
     pub fn position(&self, i: u32) -> Vec3 {
-        self.grid().spec().center(self.skin[i as usize])
+        self.spec.center(self.skin()[i as usize])
     }
 }
 
@@ -139,9 +181,8 @@ impl std::fmt::Debug for Scene {
         f.debug_struct("Scene")
             .field("triangles", &self.mesh.triangles().len())
             .field("resolution", &self.resolution)
-            .field("dims", &self.grid().dims())
             .field("voxel_size", &self.voxel_size())
-            .field("skin_voxels", &self.skin.len())
+            .field("voxelized", &self.voxels.get().is_some())
             .finish()
     }
 }

@@ -5,13 +5,17 @@ use std::str::FromStr;
 
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
+use crate::descriptor::curvature::{Layer, handedness};
 use crate::descriptor::harmonics::ClutterGuard;
-use crate::descriptor::{ClutterPolicy, HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{
+    ClutterPolicy, CurvatureDescriptor, HarmonicsDescriptor, SphericalTransform, VolumeDescriptor,
+};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::instances::{Instance, Verified, group, local_bests};
+use crate::math::Vec3;
 use crate::scene::Scene;
-use crate::template::{Template, TemplateSource};
+use crate::template::{SurfaceTemplate, Template, TemplateSource};
 use crate::verify::Verifier;
 
 /// Which descriptors the cascade runs.
@@ -24,6 +28,9 @@ pub enum DescriptorKind {
     Volume,
     /// The spherical harmonics alone.
     Harmonics,
+    /// Gaussian curvature on the mesh (paper, sec. 4.3): for shapes bent
+    /// out of their rigid pose.
+    Curvature,
 }
 
 impl DescriptorKind {
@@ -33,6 +40,7 @@ impl DescriptorKind {
             DescriptorKind::VolumeHarmonics => "volume+harmonics",
             DescriptorKind::Volume => "volume",
             DescriptorKind::Harmonics => "harmonics",
+            DescriptorKind::Curvature => "curvature",
         }
     }
 }
@@ -50,9 +58,10 @@ impl FromStr for DescriptorKind {
             "volume+harmonics" => Ok(DescriptorKind::VolumeHarmonics),
             "volume" => Ok(DescriptorKind::Volume),
             "harmonics" => Ok(DescriptorKind::Harmonics),
+            "curvature" => Ok(DescriptorKind::Curvature),
             _ => Err(Error::invalid_option(
                 "descriptor",
-                format!("'{s}' is not one of volume+harmonics, volume, harmonics"),
+                format!("'{s}' is not one of volume+harmonics, volume, harmonics, curvature"),
             )),
         }
     }
@@ -73,6 +82,10 @@ pub struct MatchOptions {
     /// equivalent deviation (see [`crate::descriptor::harmonics`]).
     /// Default: 0.8.
     pub harmonics_threshold: f64,
+    /// Curvature stage: bound on the sum of squared differences of the
+    /// Gaussian curvatures scaled by r_k^2 (see
+    /// [`crate::descriptor::curvature`]). Default: 2.5.
+    pub curvature_threshold: f64,
     /// Survivors within this fraction of r_k of a better one join its
     /// instance: an occurrence claims the ball its descriptor describes.
     /// Default: 1.0.
@@ -97,6 +110,7 @@ impl MatchOptions {
         layers: 6,
         volume_threshold: 0.12,
         harmonics_threshold: 0.8,
+        curvature_threshold: 2.5,
         group_radius: 1.0,
         verify_threshold: 0.85,
         clutter: ClutterPolicy::DEFAULT,
@@ -117,6 +131,7 @@ impl MatchOptions {
         };
         positive("volume threshold", self.volume_threshold)?;
         positive("harmonics threshold", self.harmonics_threshold)?;
+        positive("curvature threshold", self.curvature_threshold)?;
         positive("group radius", self.group_radius)?;
         for (name, share) in [
             ("verify threshold", self.verify_threshold),
@@ -154,6 +169,15 @@ pub struct TemplateInfo {
     pub radius: f64,
 }
 
+/// The welded surface as the report shows it (curvature searches).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SurfaceInfo {
+    /// Welded vertices: the candidate points.
+    pub vertices: usize,
+    /// Triangles.
+    pub triangles: usize,
+}
+
 /// The grid as the report shows it.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct GridInfo {
@@ -170,8 +194,10 @@ pub struct GridInfo {
 pub struct Timings {
     /// Reading and parsing the files (filled in by whoever loaded them).
     pub load: f64,
-    /// Voxelizing the scene.
+    /// Voxelizing the scene (voxel descriptors).
     pub voxelize: f64,
+    /// Welding the scene's mesh and building its adjacency (curvature).
+    pub surface: f64,
     /// Building the template and its descriptors.
     pub template: f64,
     /// The cascade.
@@ -186,7 +212,8 @@ pub struct Timings {
 impl Timings {
     /// Recomputes `total` from the parts.
     pub fn sum(&mut self) {
-        self.total = self.load + self.voxelize + self.template + self.match_ + self.group;
+        self.total =
+            self.load + self.voxelize + self.surface + self.template + self.match_ + self.group;
     }
 }
 
@@ -199,8 +226,10 @@ pub struct MatchReport {
     pub instances: Vec<Instance>,
     /// Per-layer statistics of every stage.
     pub stages: Vec<LayerStats>,
-    /// The voxel grid.
-    pub grid: GridInfo,
+    /// The voxel grid (voxel descriptors; None for curvature).
+    pub grid: Option<GridInfo>,
+    /// The welded surface (curvature; None for the voxel descriptors).
+    pub surface: Option<SurfaceInfo>,
     /// Stage timings.
     #[serde(rename = "timings_ms")]
     pub timings: Timings,
@@ -215,11 +244,21 @@ impl fmt::Display for MatchReport {
             "template: centre ({:.4}, {:.4}, {:.4}), radius {:.4}",
             t.center[0], t.center[1], t.center[2], t.radius
         )?;
-        writeln!(
-            f,
-            "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points\n",
-            self.grid.resolution, self.grid.voxel_size, self.grid.skin_voxels
-        )?;
+        if let Some(g) = &self.grid {
+            writeln!(
+                f,
+                "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points",
+                g.resolution, g.voxel_size, g.skin_voxels
+            )?;
+        }
+        if let Some(s) = &self.surface {
+            writeln!(
+                f,
+                "surface: {} welded vertices (the candidate points), {} triangles",
+                s.vertices, s.triangles
+            )?;
+        }
+        writeln!(f)?;
         writeln!(
             f,
             "{:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
@@ -235,23 +274,30 @@ impl fmt::Display for MatchReport {
         writeln!(f, "\n{} instance(s):", self.instances.len())?;
         for (i, inst) in self.instances.iter().enumerate() {
             let p = inst.position;
-            writeln!(
+            write!(
                 f,
-                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}  agreement {:.3}  support {}",
+                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}",
                 i + 1,
                 p[0],
                 p[1],
                 p[2],
                 inst.distance,
-                inst.score,
-                inst.support
             )?;
+            if let Some(score) = inst.score {
+                write!(f, "  agreement {score:.3}")?;
+            }
+            writeln!(f, "  support {}", inst.support)?;
         }
         let tm = &self.timings;
         write!(
             f,
-            "\ntime (ms): load {:.1}, voxelize {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1}",
-            tm.load, tm.voxelize, tm.template, tm.match_, tm.group, tm.total
+            "\ntime (ms): load {:.1}, voxelize/weld {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1}",
+            tm.load,
+            tm.voxelize + tm.surface,
+            tm.template,
+            tm.match_,
+            tm.group,
+            tm.total
         )
     }
 }
@@ -264,6 +310,11 @@ pub fn search(
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
     options.validate()?;
+    if options.descriptor == DescriptorKind::Curvature {
+        return search_surface(scene, source, options, observer);
+    }
+    // Voxelize first, so that its time is not the template's.
+    scene.solid();
     let t0 = now_ms();
     let template = Template::new(
         source,
@@ -360,6 +411,7 @@ pub fn search(
     let mut timings = Timings {
         load: 0.0,
         voxelize: scene.voxelize_ms(),
+        surface: 0.0,
         template: t1 - t0,
         match_: t2 - t1,
         group: t3 - t2,
@@ -373,11 +425,145 @@ pub fn search(
         },
         instances,
         stages: stats,
-        grid: GridInfo {
+        grid: Some(GridInfo {
             resolution: scene.resolution(),
             voxel_size: scene.voxel_size(),
             skin_voxels: scene.skin().len(),
-        },
+        }),
+        surface: None,
         timings,
     })
+}
+
+/// The curvature search: candidates are the scene's welded vertices;
+/// the best survivor of each blob must turn the same way as the template
+/// ([`MirrorTest`]), then survivors are grouped. There is no voxel
+/// verification: the shapes this descriptor is for are bent, so a rigid
+/// placement would not fit them.
+fn search_surface(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+) -> Result<MatchReport> {
+    let surface = scene.surface();
+    let t0 = now_ms();
+    let template = SurfaceTemplate::new(source, scene, options.layers)?;
+    let radii = template.radii();
+    let template_surface = template.surface(scene);
+    let template_layers =
+        CurvatureDescriptor::layers_at(template_surface, template.vertex(), radii);
+    let mirror_test = MirrorTest::new(
+        template_surface.vertex_normal(template.vertex()),
+        &template_layers,
+        radii,
+    );
+    let curvature = CurvatureDescriptor::new(
+        surface,
+        radii,
+        &template_layers
+            .iter()
+            .map(|l| l.gaussian)
+            .collect::<Vec<_>>(),
+        options.curvature_threshold,
+    );
+    let t1 = now_ms();
+    let candidates = surface.used_vertices().collect();
+    let (survivors, stats) = run_cascade(&[&curvature], candidates, options.backend, observer)?;
+    let t2 = now_ms();
+    let position = |v| surface.position(v);
+    let bests: Vec<Verified> = local_bests(&survivors, position, radii[0])
+        .into_iter()
+        .filter(|s| {
+            mirror_test.passes(
+                surface.vertex_normal(s.point),
+                &CurvatureDescriptor::layers_at(surface, s.point, radii),
+            )
+        })
+        .map(|s| Verified {
+            survivor: s,
+            score: 1.0,
+            position: position(s.point),
+        })
+        .collect();
+    let mut instances = group(
+        &bests,
+        &survivors,
+        position,
+        options.group_radius * template.radius(),
+    );
+    for i in &mut instances {
+        i.score = None;
+    }
+    let t3 = now_ms();
+    let mut timings = Timings {
+        surface: scene.surface_ms(),
+        template: t1 - t0,
+        match_: t2 - t1,
+        group: t3 - t2,
+        ..Timings::default()
+    };
+    timings.sum();
+    Ok(MatchReport {
+        template: TemplateInfo {
+            center: template.center().to_array(),
+            radius: template.radius(),
+        },
+        instances,
+        stages: stats,
+        grid: None,
+        surface: Some(SurfaceInfo {
+            vertices: surface.vertex_count(),
+            triangles: surface.triangles().len(),
+        }),
+        timings,
+    })
+}
+
+/// Tells a point from its mirror twin, which has the same Gaussian
+/// curvatures (the other flank of a symmetric shape): the innermost pair of
+/// layers whose centroids turn clearly one way around the template's normal
+/// must turn the same way around the candidate's. "Clearly": both centroids
+/// lie off the normal by at least [`MirrorTest::OFFSET`] of their radius
+/// (closer, their direction is tessellation noise) and [`handedness`] is at
+/// least [`MirrorTest::TURN`]. Where no pair qualifies, the template is
+/// about mirror-symmetric at c_T and has no twin to tell apart.
+struct MirrorTest {
+    /// Layers (inner, outer) and the template's sign, if any pair is clear.
+    pair: Option<(usize, usize, f64)>,
+}
+
+impl MirrorTest {
+    const OFFSET: f64 = 0.05;
+    const TURN: f64 = 0.5;
+
+    fn new(normal: Vec3, layers: &[Layer], radii: &[f64]) -> MirrorTest {
+        let off_normal = |i: usize| {
+            let m = layers[i].centroid;
+            (m - normal * normal.dot(m)).norm() >= Self::OFFSET * radii[i]
+        };
+        let k = layers.len();
+        let pair = (1..k)
+            .flat_map(|outer| (0..outer).rev().map(move |inner| (inner, outer)))
+            .filter(|&(a, b)| off_normal(a) && off_normal(b))
+            .map(|(a, b)| {
+                (
+                    a,
+                    b,
+                    handedness(normal, layers[a].centroid, layers[b].centroid),
+                )
+            })
+            .find(|&(_, _, turn)| turn.abs() >= Self::TURN)
+            .map(|(a, b, turn)| (a, b, turn.signum()));
+        MirrorTest { pair }
+    }
+
+    fn passes(&self, normal: Vec3, layers: &[Layer]) -> bool {
+        match self.pair {
+            Some((a, b, sign)) => {
+                handedness(normal, layers[a].centroid, layers[b].centroid) * sign >= 0.0
+            }
+            None => true,
+        }
+    }
 }

@@ -11,13 +11,15 @@
 //! - A selection sphere on the scene: its centre snapped to the nearest
 //!   surface point, and its radius; the descriptors are read from the scene.
 //!
-//! The radii are evenly spaced, r_i = r_k i / k. The descriptors are computed
-//! at the skin voxel nearest to c_T, a point of the same kind as the scene's
-//! candidates.
+//! The radii are evenly spaced, r_i = r_k i / k. The voxel descriptors are
+//! computed at the skin voxel nearest to c_T, a point of the same kind as the
+//! scene's candidates; the curvature descriptor at the mesh vertex nearest to
+//! c_T ([`SurfaceTemplate`]), for the same reason.
 
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Vec3;
+use crate::mesh::surface::Surface;
 use crate::mesh::{TriMesh, minimal_bounding_sphere};
 use crate::scene::{GRIDS_IN_FLIGHT, Scene, nearest_voxel};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
@@ -91,16 +93,7 @@ impl Template {
                 (center, radius, Some(Solid::new(grid)), voxel)
             }
             &TemplateSource::Selection { center, radius } => {
-                let c = Vec3::new(center[0], center[1], center[2]);
-                let finite = c.x.is_finite() && c.y.is_finite() && c.z.is_finite();
-                if !(finite && radius.is_finite() && radius > 0.0) {
-                    return Err(Error::invalid_option(
-                        "select",
-                        format!(
-                            "the sphere needs a finite centre and a positive radius, got {center:?} and {radius}"
-                        ),
-                    ));
-                }
+                let c = check_selection(center, radius)?;
                 let nearest = scene.mesh().closest_point(c);
                 let distance = nearest.distance2.sqrt();
                 if distance > radius {
@@ -162,5 +155,114 @@ impl Template {
     pub fn center_offset(&self, scene: &'_ Scene) -> Vec3 {
         let spec = self.solid(scene).bits().spec();
         (self.center - spec.center(self.voxel)) * (1.0 / spec.voxel_size)
+    }
+}
+
+/// A template for the curvature descriptor, prepared on the mesh: no voxels.
+pub struct SurfaceTemplate {
+    vertex: u32,
+    center: Vec3,
+    radius: f64,
+    radii: Vec<f64>,
+    own_surface: Option<Surface>,
+}
+
+impl SurfaceTemplate {
+    /// Prepares `source` for searching `scene`'s surface with `layers` radii.
+    /// c_T is the template's (or for a selection, the scene's) mesh vertex
+    /// nearest to the surface point the voxel templates use.
+    pub fn new(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<SurfaceTemplate> {
+        if layers == 0 {
+            return Err(Error::invalid_option(
+                "layers",
+                "at least one layer is needed",
+            ));
+        }
+        let (own_surface, target, radius) = match source {
+            TemplateSource::Model(mesh) => {
+                let surface = Surface::new(mesh);
+                let used: Vec<Vec3> = surface
+                    .used_vertices()
+                    .map(|v| surface.position(v))
+                    .collect();
+                let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
+                (Some(surface), mesh.closest_point(sphere.center).point, None)
+            }
+            &TemplateSource::Selection { center, radius } => {
+                let c = check_selection(center, radius)?;
+                let nearest = scene.mesh().closest_point(c);
+                let distance = nearest.distance2.sqrt();
+                if distance > radius {
+                    return Err(Error::SelectionMissesScene {
+                        center,
+                        radius,
+                        distance,
+                    });
+                }
+                (None, nearest.point, Some(radius))
+            }
+        };
+        let surface = own_surface.as_ref().unwrap_or(scene.surface());
+        let vertex = surface
+            .nearest_vertex(target)
+            .expect("a surface with triangles has a used vertex");
+        let center = surface.position(vertex);
+        let radius = radius.unwrap_or_else(|| {
+            surface
+                .used_vertices()
+                .map(|v| surface.position(v).dist(center))
+                .fold(0.0, f64::max)
+        });
+        Ok(SurfaceTemplate {
+            vertex,
+            center,
+            radius,
+            radii: (1..=layers)
+                .map(|i| radius * i as f64 / layers as f64)
+                .collect(),
+            own_surface,
+        })
+    }
+
+    /// c_T: in the model's coordinates, or in world coordinates for a selection.
+    pub fn center(&self) -> Vec3 {
+        self.center
+    }
+
+    /// The outer radius r_k.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// r_1..r_k.
+    pub fn radii(&self) -> &[f64] {
+        &self.radii
+    }
+
+    /// The vertex the template's descriptor is computed at, on
+    /// [`SurfaceTemplate::surface`].
+    pub fn vertex(&self) -> u32 {
+        self.vertex
+    }
+
+    /// The surface the template's descriptor is read from.
+    pub fn surface<'a>(&'a self, scene: &'a Scene) -> &'a Surface {
+        self.own_surface.as_ref().unwrap_or(scene.surface())
+    }
+}
+
+/// The selection sphere's centre, if the sphere is usable.
+fn check_selection(center: [f64; 3], radius: f64) -> Result<Vec3> {
+    let c = Vec3::new(center[0], center[1], center[2]);
+    let finite = c.x.is_finite() && c.y.is_finite() && c.z.is_finite();
+    if finite && radius.is_finite() && radius > 0.0 {
+        Ok(c)
+    } else {
+        Err(Error::invalid_option(
+            "select",
+            format!(
+                "the sphere needs a finite centre and a positive radius, got {center:?} and {radius}"
+            ),
+        ))
     }
 }

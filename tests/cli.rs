@@ -79,6 +79,43 @@ fn the_demo_finds_its_three_mugs() {
     let out = cli(&["demo", "--json"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_finds_the_demo_mugs(&v, 0.2);
+    // Without --json it prints a readable table.
+    let out = cli(&["demo"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("3 instance(s)") && text.contains("harmonics"),
+        "{text}"
+    );
+}
+
+#[test]
+fn curvature_finds_the_demo_mugs_on_the_mesh() {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let out = cli(&[
+        "match",
+        &scene,
+        "--template",
+        &template,
+        "--descriptor",
+        "curvature",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The mug's body is a surface of revolution: every point around it has
+    // the same curvatures, so the instance's point may lie anywhere on its
+    // mug (within the mug's radius of c_T), but each mug once.
+    assert_finds_the_demo_mugs(&v, 1.0);
+    assert!(v["grid"].is_null(), "no voxels for curvature");
+    assert!(v["surface"]["vertices"].as_u64().unwrap() > 0);
+    assert_eq!(v["stages"][0]["descriptor"], "curvature");
+    assert!(v["instances"][0]["score"].is_null());
+}
+
+/// Every mug has an instance within `tolerance` of its c_T.
+fn assert_finds_the_demo_mugs(v: &serde_json::Value, tolerance: f64) {
     let truth: serde_json::Value = serde_json::from_slice(
         &std::fs::read(concat!(
             env!("CARGO_MANIFEST_DIR"),
@@ -114,17 +151,10 @@ fn the_demo_finds_its_three_mugs() {
         assert!(
             found
                 .iter()
-                .any(|f| (0..3).map(|k| (f[k] - t[k]).powi(2)).sum::<f64>().sqrt() < 0.2),
+                .any(|f| (0..3).map(|k| (f[k] - t[k]).powi(2)).sum::<f64>().sqrt() < tolerance),
             "no instance near {t:?}"
         );
     }
-    // Without --json it prints a readable table.
-    let out = cli(&["demo"]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        text.contains("3 instance(s)") && text.contains("harmonics"),
-        "{text}"
-    );
 }
 
 /// Splits a .glb into a .gltf with its buffer in a .bin beside it.

@@ -192,6 +192,14 @@ fn a_selection_sphere_that_touches_no_surface_is_an_error() {
             Err(Error::InvalidOption { .. })
         ));
     }
+    // The curvature search checks the sphere the same way.
+    let mut curvature = MatchOptions::DEFAULT;
+    curvature.descriptor = fast_reject::search::DescriptorKind::Curvature;
+    let e = search(&scene, &far, &curvature, &mut ()).unwrap_err();
+    assert!(matches!(e, Error::SelectionMissesScene { .. }), "{e}");
+    curvature.curvature_threshold = f64::NAN;
+    let e = search(&scene, &inside, &curvature, &mut ()).unwrap_err();
+    assert!(matches!(e, Error::InvalidOption { .. }), "{e}");
 }
 
 #[test]

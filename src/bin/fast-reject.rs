@@ -45,7 +45,7 @@ struct MatchArgs {
     #[arg(long, value_name = "X,Y,Z,R", allow_hyphen_values = true)]
     select: Option<String>,
     /// Descriptors to run.
-    #[arg(long, default_value = "volume+harmonics", value_parser = ["volume+harmonics", "volume", "harmonics"])]
+    #[arg(long, default_value = "volume+harmonics", value_parser = ["volume+harmonics", "volume", "harmonics", "curvature"])]
     descriptor: String,
     /// Voxels along the scene's longest side.
     #[arg(long, default_value_t = SceneOptions::DEFAULT.resolution)]
@@ -62,6 +62,10 @@ struct MatchArgs {
     /// Harmonics stage threshold (voxels of equivalent deviation).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.harmonics_threshold)]
     harmonics_threshold: f64,
+    /// Curvature threshold (sum of squared differences of the Gaussian
+    /// curvatures scaled by r_k^2).
+    #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_threshold)]
+    curvature_threshold: f64,
     /// Verification: least share of the template's visible surface that must
     /// lie on the scene's surface (0..1).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.verify_threshold)]
@@ -102,6 +106,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     options.layers = args.layers;
     options.volume_threshold = args.volume_threshold;
     options.harmonics_threshold = args.harmonics_threshold;
+    options.curvature_threshold = args.curvature_threshold;
     options.verify_threshold = args.verify_threshold;
     options.clutter.hidden_surface = args.hidden_surface;
     options.backend = backend;

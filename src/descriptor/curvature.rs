@@ -23,10 +23,8 @@
 
 use super::OnionDescriptor;
 use crate::math::{Vec3, symmetric_eigen};
-use crate::mesh::surface::Surface;
-use crate::mesh::{
-    FxHashSet, closest_point_on_triangle, segment_length_in_ball, triangle_area_in_ball,
-};
+use crate::mesh::surface::{CurvedEdge, Surface};
+use crate::mesh::{closest_point_on_triangle, segment_length_in_ball, triangle_area_in_ball};
 
 /// The curvature descriptor of a scene's surface against a template's.
 pub struct CurvatureDescriptor<'a> {
@@ -46,12 +44,14 @@ pub struct CurvatureState {
     normal: Vec3,
     /// Region triangles wholly inside the last ball: their sums are final.
     interior: Sums,
+    /// Every region triangle so far (the walk must not enter them again).
+    region: Vec<u32>,
     /// Region triangles cut by the last ball: summed again each layer.
     cut: Vec<u32>,
-    /// Triangles tested so far (in the region or waiting).
-    seen: FxHashSet<u32>,
     /// Tested triangles next to the region that missed the last ball.
     waiting: Vec<u32>,
+    /// Whether the walk has started from the vertex's own triangles.
+    started: bool,
     distance: f64,
 }
 
@@ -60,6 +60,18 @@ pub struct CurvatureState {
 struct Sums {
     area: f64,
     tensor: [[f64; 3]; 3],
+    /// Area-weighted sum of positions (cut triangles at their centroid).
+    moment: Vec3,
+}
+
+/// One layer of the neighbourhood of a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layer {
+    /// Gaussian curvature (unscaled).
+    pub gaussian: f64,
+    /// Centre of the area of the neighbourhood, relative to the vertex:
+    /// which way the surface around it extends (see [`handedness`]).
+    pub centroid: Vec3,
 }
 
 impl<'a> CurvatureDescriptor<'a> {
@@ -85,10 +97,18 @@ impl<'a> CurvatureDescriptor<'a> {
     /// The Gaussian curvature of `surface` at vertex `v` for every radius:
     /// the template's descriptor, computed the same way as the scene's.
     pub fn describe(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
+        Self::layers_at(surface, v, radii)
+            .iter()
+            .map(|l| l.gaussian)
+            .collect()
+    }
+
+    /// Every layer at vertex `v`, with the centroids.
+    pub fn layers_at(surface: &Surface, v: u32, radii: &[f64]) -> Vec<Layer> {
         let mut state = CurvatureState::at(surface, v);
         radii
             .iter()
-            .map(|&r| gaussian_curvature(surface, v, r, &mut state))
+            .map(|&r| grow_layer(surface, v, r, &mut state))
             .collect()
     }
 }
@@ -98,9 +118,10 @@ impl CurvatureState {
         CurvatureState {
             normal: surface.vertex_normal(v),
             interior: Sums::default(),
+            region: Vec::new(),
             cut: Vec::new(),
-            seen: FxHashSet::default(),
             waiting: Vec::new(),
+            started: false,
             distance: 0.0,
         }
     }
@@ -130,129 +151,220 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut CurvatureState) -> f64 {
-        let g = gaussian_curvature(self.surface, point, self.radii[layer], state) * self.scale;
+        let g = grow_layer(self.surface, point, self.radii[layer], state).gaussian * self.scale;
         let d = g - self.template[layer];
         state.distance += d * d;
         state.distance
     }
 }
 
+/// Per-thread scratch for the neighbourhood walk: a mark per triangle
+/// (equal to `current` when seen in this walk) and the walk's queue. Marks
+/// are generations, so a walk never clears the array.
+#[derive(Default)]
+struct Walk {
+    marks: Vec<u32>,
+    current: u32,
+    queue: Vec<u32>,
+}
+
+impl Walk {
+    /// Starts a walk over `triangles` triangles.
+    fn begin(&mut self, triangles: usize) {
+        if self.marks.len() < triangles {
+            self.marks.resize(triangles, 0);
+        }
+        if self.current == u32::MAX {
+            self.marks.fill(0);
+            self.current = 0;
+        }
+        self.current += 1;
+        self.queue.clear();
+    }
+
+    /// Marks `t`; false if it was already marked in this walk.
+    fn mark(&mut self, t: u32) -> bool {
+        let m = &mut self.marks[t as usize];
+        let fresh = *m != self.current;
+        *m = self.current;
+        fresh
+    }
+}
+
+thread_local! {
+    static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
+}
+
 /// Grows `state`'s region to the ball of radius `r` at vertex `v` and
-/// returns the Gaussian curvature there (0 where the ball holds no area).
-fn gaussian_curvature(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> f64 {
+/// returns the layer there (Gaussian curvature 0 where the ball holds no
+/// area).
+fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> Layer {
     let c = surface.position(v);
-    let normal = state.normal;
-    let fresh = grow(surface, c, v, r, state);
-    // Triangles cut by the last ball and new ones: those now wholly inside
-    // join the final sums, the rest are counted for this ball only.
-    let mut cut = std::mem::take(&mut state.cut);
-    cut.extend(fresh);
-    let mut sums = state.interior;
-    for t in cut {
-        let corners = surface.corners(t);
-        let whole = corners.iter().all(|p| p.dist(c) <= r);
-        if whole {
-            add_triangle(surface, t, c, r, normal, &mut state.interior);
+    let r2 = r * r;
+    let ball = Ball {
+        centre: c,
+        radius: r,
+        normal: state.normal,
+    };
+    let previous_cut = std::mem::take(&mut state.cut);
+    WALK.with_borrow_mut(|walk| {
+        walk.begin(surface.triangles().len());
+        for &t in state.region.iter().chain(&state.waiting) {
+            walk.mark(t);
+        }
+        let mut queue = std::mem::take(&mut walk.queue);
+        // Those that missed the smaller ball may meet this one.
+        queue.append(&mut state.waiting);
+        if !state.started {
+            state.started = true;
+            for &t in surface.triangles_at(v) {
+                if walk.mark(t) {
+                    queue.push(t);
+                }
+            }
+        }
+        while let Some(t) = queue.pop() {
+            let p = surface.corners(t);
+            let inside = p.map(|q| (q - c).norm2() <= r2);
+            let meets = inside.iter().any(|&x| x)
+                || closest_point_on_triangle(c, p[0], p[1], p[2], t as usize).distance2 <= r2;
+            if !meets {
+                state.waiting.push(t);
+                continue;
+            }
+            state.region.push(t);
+            if inside.iter().all(|&x| x) {
+                ball.add_whole(surface, t, &mut state.interior);
+            } else {
+                state.cut.push(t);
+            }
+            for &n in surface.neighbours(t) {
+                if walk.mark(n) {
+                    queue.push(n);
+                }
+            }
+        }
+        walk.queue = queue;
+    });
+    // Triangles cut by the smaller ball may now lie wholly inside.
+    for t in previous_cut {
+        if surface.corners(t).iter().all(|q| (*q - c).norm2() <= r2) {
+            ball.add_whole(surface, t, &mut state.interior);
         } else {
             state.cut.push(t);
         }
-        add_triangle(surface, t, c, r, normal, &mut sums);
+    }
+    let mut sums = state.interior;
+    for &t in &state.cut {
+        ball.add_cut(surface, t, &mut sums);
     }
     if sums.area <= 0.0 {
-        return 0.0;
+        return Layer {
+            gaussian: 0.0,
+            centroid: Vec3::ZERO,
+        };
     }
-    let tensor = sums.tensor.map(|row| row.map(|x| x / sums.area));
+    // Only the upper triangle is summed.
+    let t = sums.tensor;
+    let tensor = [
+        [t[0][0], t[0][1], t[0][2]],
+        [t[0][1], t[1][1], t[1][2]],
+        [t[0][2], t[1][2], t[2][2]],
+    ]
+    .map(|row| row.map(|x| x / sums.area));
     let (values, _) = symmetric_eigen(tensor);
     // Drop the eigenvalue of least magnitude (the normal's).
     let smallest = (0..3)
         .min_by(|&i, &j| values[i].abs().total_cmp(&values[j].abs()))
         .expect("three eigenvalues");
-    (0..3)
-        .filter(|&i| i != smallest)
-        .map(|i| values[i])
-        .product()
+    Layer {
+        gaussian: (0..3)
+            .filter(|&i| i != smallest)
+            .map(|i| values[i])
+            .product(),
+        centroid: sums.moment * (1.0 / sums.area) - c,
+    }
 }
 
-/// Adds triangle `t`'s area inside the ball and half of each of its edges'
-/// tensors: both triangles of a manifold edge meeting the ball are in the
-/// region (they share the part inside it), so each edge is counted whole.
-fn add_triangle(surface: &Surface, t: u32, c: Vec3, r: f64, normal: Vec3, sums: &mut Sums) {
-    sums.area += triangle_area_in_ball(surface.corners(t), c, r);
-    for e in surface.triangle_edges(t) {
-        let edge = surface.edge(e);
-        if edge.angle == 0.0 {
-            continue;
+/// Which way the neighbourhood of a vertex turns from an inner layer to an
+/// outer one, seen along the vertex normal: the sine of the angle between
+/// the two centroids' tangential parts (positive counter-clockwise). A
+/// mirror image flips its sign, a rotation or a bending does not; the
+/// Gaussian curvature cannot tell a point from its mirror twin (the other
+/// flank of a symmetric shape), this can. Zero where a centroid has no
+/// tangential part.
+pub fn handedness(normal: Vec3, inner: Vec3, outer: Vec3) -> f64 {
+    let flat = |m: Vec3| m - normal * normal.dot(m);
+    let (a, b) = (flat(inner), flat(outer));
+    let scale = a.norm() * b.norm();
+    if scale > 0.0 {
+        normal.dot(a.cross(b)) / scale
+    } else {
+        0.0
+    }
+}
+
+fn centroid(p: [Vec3; 3]) -> Vec3 {
+    (p[0] + p[1] + p[2]) * (1.0 / 3.0)
+}
+
+/// The ball of one layer, with the normal of the vertex at its centre.
+struct Ball {
+    centre: Vec3,
+    radius: f64,
+    normal: Vec3,
+}
+
+impl Ball {
+    /// Adds triangle `t`, wholly inside, with its curved edges.
+    fn add_whole(&self, surface: &Surface, t: u32, sums: &mut Sums) {
+        let area = surface.area(t);
+        sums.area += area;
+        sums.moment += centroid(surface.corners(t)) * area;
+        for e in surface.curved_edges(t) {
+            self.add_edge(e, e.length, sums);
         }
-        let (a, b) = (
-            surface.position(edge.ends[0]),
-            surface.position(edge.ends[1]),
-        );
-        let inside = segment_length_in_ball(a, b, c, r);
-        if inside == 0.0 {
-            continue;
+    }
+
+    /// Adds the part of triangle `t` inside the ball, with its curved edges
+    /// clipped.
+    fn add_cut(&self, surface: &Surface, t: u32, sums: &mut Sums) {
+        let p = surface.corners(t);
+        let area = triangle_area_in_ball(p, self.centre, self.radius);
+        sums.area += area;
+        sums.moment += centroid(p) * area;
+        for e in surface.curved_edges(t) {
+            let inside = segment_length_in_ball(e.a, e.b, self.centre, self.radius);
+            if inside > 0.0 {
+                self.add_edge(e, inside, sums);
+            }
         }
-        let Some(dir) = transport((b - a) * (1.0 / (b - a).norm()), edge.normal, normal) else {
-            continue;
-        };
-        let w = 0.5 * edge.angle * inside;
-        let d = [dir.x, dir.y, dir.z];
+    }
+
+    /// Adds `angle * length * d d^T`, with the edge direction d turned by
+    /// the rotation that takes the edge's normal to the centre's. Without
+    /// it, on a curved patch the edges tilt out of the centre's tangent
+    /// plane, the normal direction takes a share of the tensor, and the two
+    /// tangential eigenvalues shrink with the radius (16% at r = 0.6 R on a
+    /// sphere of radius R). Skipped where the surface has turned by 180
+    /// degrees or more.
+    fn add_edge(&self, e: &CurvedEdge, length: f64, sums: &mut Sums) {
+        let (n, u, d) = (e.normal, self.normal, e.direction);
+        let cos = n.dot(u);
+        if cos <= -1.0 + 1e-9 {
+            return;
+        }
+        // The minimal rotation taking n to u, applied to d (d is normal to
+        // n): R d = d - ((u . d) / (1 + n . u)) (n + u).
+        let d = d - (n + u) * (u.dot(d) / (1.0 + cos));
+        let w = e.angle * length;
+        let d = [d.x, d.y, d.z];
         for i in 0..3 {
-            for j in 0..3 {
+            for j in i..3 {
                 sums.tensor[i][j] += w * d[i] * d[j];
             }
         }
     }
-}
-
-/// Turns `dir`, tangent where the surface has normal `from`, by the rotation
-/// taking `from` to `to`: the edge as seen from the centre's tangent plane.
-/// Without it, on a curved patch the edges tilt out of that plane, the
-/// normal direction takes a share of the tensor, and the two tangential
-/// eigenvalues shrink with the radius (16% at r = 0.6 R on a sphere of
-/// radius R). None where the surface has turned by 180 degrees or more.
-fn transport(dir: Vec3, from: Vec3, to: Vec3) -> Option<Vec3> {
-    let c = from.dot(to);
-    if from == Vec3::ZERO || to == Vec3::ZERO {
-        return Some(dir);
-    }
-    if c <= -1.0 + 1e-9 {
-        return None;
-    }
-    // Rodrigues with k sin = from x to, cos = c: R x = c x + k x x + (k.x) k / (1 + c).
-    let k = from.cross(to);
-    Some(dir * c + k.cross(dir) + k * (k.dot(dir) / (1.0 + c)))
-}
-
-/// Adds to the region every triangle connected to `v` through triangles that
-/// meet the ball of radius `r` at `c`; returns the ones added.
-fn grow(surface: &Surface, c: Vec3, v: u32, r: f64, state: &mut CurvatureState) -> Vec<u32> {
-    let meets = |t: u32| {
-        let [a, b, d] = surface.corners(t);
-        closest_point_on_triangle(c, a, b, d, t as usize).distance2 <= r * r
-    };
-    let mut queue: Vec<u32> = Vec::new();
-    if state.seen.is_empty() {
-        for &t in surface.triangles_at(v) {
-            state.seen.insert(t);
-            queue.push(t);
-        }
-    }
-    // Those that missed the smaller ball may meet this one.
-    queue.append(&mut state.waiting);
-    let mut added = Vec::new();
-    while let Some(t) = queue.pop() {
-        if !meets(t) {
-            state.waiting.push(t);
-            continue;
-        }
-        added.push(t);
-        for n in surface.neighbours(t) {
-            if state.seen.insert(n) {
-                queue.push(n);
-            }
-        }
-    }
-    added
 }
 
 #[cfg(test)]
@@ -415,5 +527,50 @@ mod tests {
         // Each layer adds (r_k^2 * (1 - 0))^2 = 0.0256.
         assert!((first - 0.0256).abs() < 0.003, "{first}");
         assert!((second - 2.0 * 0.0256).abs() < 0.006, "{second}");
+    }
+
+    #[test]
+    fn a_mirror_image_keeps_the_curvature_and_flips_the_handedness() {
+        // A lopsided blob: its centroids turn one way around the normal.
+        let m = uv_sphere(Vec3::ZERO, 1.0, 32, 64)
+            .map_positions(|p| {
+                Vec3::new(
+                    p.x + 0.3 * p.y * p.y,
+                    0.8 * p.y + 0.2 * p.z * p.x,
+                    0.6 * p.z + 0.25 * p.x * p.y,
+                )
+            })
+            .unwrap();
+        let mirror = |p: Vec3| Vec3::new(-p.x, p.y, p.z);
+        let mirrored = m.map_positions(mirror).unwrap();
+        let mirrored = TriMesh::new(
+            mirrored.positions().to_vec(),
+            mirrored
+                .triangles()
+                .iter()
+                .map(|t| [t[0], t[2], t[1]])
+                .collect(),
+        )
+        .unwrap();
+        let (a, b) = (Surface::new(&m), Surface::new(&mirrored));
+        let radii = [0.3, 0.6, 0.9];
+        let mut clear = 0;
+        for v in [10u32, 200, 500, 900, 1500] {
+            let w = nearest_vertex(&b, mirror(a.position(v)));
+            let (la, lb) = (
+                CurvatureDescriptor::layers_at(&a, v, &radii),
+                CurvatureDescriptor::layers_at(&b, w, &radii),
+            );
+            for (x, y) in la.iter().zip(&lb) {
+                assert!((x.gaussian - y.gaussian).abs() < 1e-6 * (1.0 + x.gaussian.abs()));
+            }
+            let ha = handedness(a.vertex_normal(v), la[0].centroid, la[2].centroid);
+            let hb = handedness(b.vertex_normal(w), lb[0].centroid, lb[2].centroid);
+            assert!((ha + hb).abs() < 1e-6, "{ha} vs {hb}");
+            if ha.abs() > 0.3 {
+                clear += 1;
+            }
+        }
+        assert!(clear >= 2, "the blob should turn clearly somewhere");
     }
 }

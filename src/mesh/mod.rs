@@ -19,7 +19,6 @@ mod weld;
 pub use ball_clip::{segment_length_in_ball, triangle_area_in_ball};
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
-pub(crate) use weld::FxHashSet;
 pub use weld::weld_vertices;
 
 use crate::error::{Error, Result};

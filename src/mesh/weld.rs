@@ -6,9 +6,6 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
-/// A hash set of small integers with [`FxHasher`].
-pub(crate) type FxHashSet<T> = std::collections::HashSet<T, BuildHasherDefault<FxHasher>>;
-
 /// Maps every vertex to a dense id shared by all vertices at exactly the same
 /// position; returns the ids and how many distinct positions there are.
 pub fn weld_vertices(positions: &[[f32; 3]]) -> (Vec<u32>, usize) {

@@ -68,10 +68,15 @@ pub fn scene(name: &str, options: &SceneOptions) -> Scene {
 
 /// Runs the matcher with default parameters.
 pub fn run(name: &str, select: bool) -> MatchReport {
+    run_with(name, select, &MatchOptions::DEFAULT)
+}
+
+/// Runs the matcher with `options`.
+pub fn run_with(name: &str, select: bool, options: &MatchOptions) -> MatchReport {
     search(
         &scene(name, &SceneOptions::DEFAULT),
         &template(name, select),
-        &MatchOptions::DEFAULT,
+        options,
         &mut (),
     )
     .unwrap()
