@@ -44,7 +44,10 @@ pub struct CurvatureState {
     normal: Vec3,
     /// Region triangles wholly inside the last ball: their sums are final.
     interior: Sums,
-    /// Every region triangle so far (the walk must not enter them again).
+    /// Patches of the region taken whole (their sums are in `interior`).
+    patches: Vec<u32>,
+    /// The other region triangles so far, counted one by one (the walk
+    /// must not enter them again).
     region: Vec<u32>,
     /// Region triangles cut by the last ball: summed again each layer.
     cut: Vec<u32>,
@@ -118,6 +121,7 @@ impl CurvatureState {
         CurvatureState {
             normal: surface.vertex_normal(v),
             interior: Sums::default(),
+            patches: Vec::new(),
             region: Vec::new(),
             cut: Vec::new(),
             waiting: Vec::new(),
@@ -159,23 +163,33 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
 }
 
 /// Per-thread scratch for the neighbourhood walk: a mark per triangle
-/// (equal to `current` when seen in this walk) and the walk's queue. Marks
-/// are generations, so a walk never clears the array.
+/// (equal to `current` when seen in this walk), per patch whether it was
+/// taken whole or has triangles counted one by one, and the walk's queue.
+/// Marks are generations, so a walk never clears the arrays.
 #[derive(Default)]
 struct Walk {
     marks: Vec<u32>,
+    taken: Vec<u32>,
+    mixed: Vec<u32>,
     current: u32,
     queue: Vec<u32>,
 }
 
 impl Walk {
-    /// Starts a walk over `triangles` triangles.
-    fn begin(&mut self, triangles: usize) {
+    /// Starts a walk over `surface`.
+    fn begin(&mut self, surface: &Surface) {
+        let (triangles, patches) = (surface.triangles().len(), surface.patch_count());
         if self.marks.len() < triangles {
             self.marks.resize(triangles, 0);
         }
+        if self.taken.len() < patches {
+            self.taken.resize(patches, 0);
+            self.mixed.resize(patches, 0);
+        }
         if self.current == u32::MAX {
             self.marks.fill(0);
+            self.taken.fill(0);
+            self.mixed.fill(0);
             self.current = 0;
         }
         self.current += 1;
@@ -208,8 +222,18 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
     };
     let previous_cut = std::mem::take(&mut state.cut);
     WALK.with_borrow_mut(|walk| {
-        walk.begin(surface.triangles().len());
-        for &t in state.region.iter().chain(&state.waiting) {
+        walk.begin(surface);
+        for &p in &state.patches {
+            walk.taken[p as usize] = walk.current;
+            for t in surface.patch_triangles(p) {
+                walk.mark(t);
+            }
+        }
+        for &t in &state.region {
+            walk.mark(t);
+            walk.mixed[surface.patch_of(t) as usize] = walk.current;
+        }
+        for &t in &state.waiting {
             walk.mark(t);
         }
         let mut queue = std::mem::take(&mut walk.queue);
@@ -224,6 +248,25 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
             }
         }
         while let Some(t) = queue.pop() {
+            let patch = surface.patch_of(t) as usize;
+            if walk.taken[patch] == walk.current {
+                continue;
+            }
+            if walk.mixed[patch] != walk.current && ball.holds_patch(surface, patch as u32) {
+                // Wholly inside and connected: all of it is in the region.
+                walk.taken[patch] = walk.current;
+                state.patches.push(patch as u32);
+                ball.add_patch(surface, patch as u32, &mut state.interior);
+                for u in surface.patch_triangles(patch as u32) {
+                    walk.mark(u);
+                }
+                for &n in surface.patch_border(patch as u32) {
+                    if walk.mark(n) {
+                        queue.push(n);
+                    }
+                }
+                continue;
+            }
             let p = surface.corners(t);
             let inside = p.map(|q| (q - c).norm2() <= r2);
             let meets = inside.iter().any(|&x| x)
@@ -316,6 +359,22 @@ struct Ball {
 }
 
 impl Ball {
+    /// Whether patch `p` lies wholly inside the ball.
+    fn holds_patch(&self, surface: &Surface, p: u32) -> bool {
+        let (centre, radius) = surface.patch_bounds(p);
+        centre.dist(self.centre) + radius <= self.radius
+    }
+
+    /// Adds patch `p`, wholly inside, with its curved edges.
+    fn add_patch(&self, surface: &Surface, p: u32, sums: &mut Sums) {
+        let (area, moment) = surface.patch_area(p);
+        sums.area += area;
+        sums.moment += moment;
+        for e in surface.patch_curved_edges(p) {
+            self.add_edge(e, e.length, sums);
+        }
+    }
+
     /// Adds triangle `t`, wholly inside, with its curved edges.
     fn add_whole(&self, surface: &Surface, t: u32, sums: &mut Sums) {
         let area = surface.area(t);

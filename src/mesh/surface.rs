@@ -29,6 +29,31 @@ pub struct Surface {
     /// Triangles around each vertex (CSR).
     vertex_start: Vec<u32>,
     vertex_triangles: Vec<u32>,
+    /// Small connected groups of triangles, stored contiguously, that a walk
+    /// takes whole when they lie inside its ball.
+    patches: Patches,
+}
+
+/// Connected patches of at most [`Patches::SIZE`] triangles: triangles of
+/// patch p are `start[p]..start[p + 1]`, and so are their curved edges in
+/// the owner order.
+#[derive(Default)]
+struct Patches {
+    of_triangle: Vec<u32>,
+    start: Vec<u32>,
+    area: Vec<f64>,
+    /// Area-weighted sum of triangle centroids.
+    moment: Vec<Vec3>,
+    /// Bounding sphere of the corners.
+    centre: Vec<Vec3>,
+    radius: Vec<f64>,
+    /// Triangles next to the patch, outside it (CSR).
+    border_start: Vec<u32>,
+    border: Vec<u32>,
+}
+
+impl Patches {
+    const SIZE: usize = 16;
 }
 
 /// An edge of the welded mesh.
@@ -239,7 +264,179 @@ impl Surface {
             curved,
             vertex_start,
             vertex_triangles,
+            patches: Patches::default(),
         }
+        .with_patches()
+    }
+
+    /// Groups the triangles into connected patches (breadth-first from each
+    /// free triangle in Morton order) and stores them patch by patch.
+    fn with_patches(self) -> Surface {
+        let n = self.triangles.len();
+        let mut patch_of = vec![u32::MAX; n];
+        let mut order: Vec<u32> = Vec::with_capacity(n);
+        let mut start = vec![0u32];
+        let mut queue = std::collections::VecDeque::new();
+        for seed in 0..n as u32 {
+            if patch_of[seed as usize] != u32::MAX {
+                continue;
+            }
+            let p = start.len() as u32 - 1;
+            let first = order.len();
+            patch_of[seed as usize] = p;
+            queue.clear();
+            queue.push_back(seed);
+            while let Some(t) = queue.pop_front() {
+                order.push(t);
+                if order.len() - first == Patches::SIZE {
+                    break;
+                }
+                for &u in self.neighbours(t) {
+                    if patch_of[u as usize] == u32::MAX
+                        && order.len() - first + queue.len() < Patches::SIZE
+                    {
+                        patch_of[u as usize] = p;
+                        queue.push_back(u);
+                    }
+                }
+            }
+            // Claimed but not reached (the patch filled up): free again.
+            for t in queue.drain(..) {
+                patch_of[t as usize] = u32::MAX;
+            }
+            start.push(order.len() as u32);
+        }
+        let mut new_of_old = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        let old = |new: usize| order[new] as usize;
+        let mut neighbour_start = vec![0u32];
+        let mut neighbour_list = Vec::with_capacity(self.neighbour_list.len());
+        let mut curved_start = vec![0u32];
+        let mut curved = Vec::with_capacity(self.curved.len());
+        for new in 0..n {
+            let t = old(new) as u32;
+            neighbour_list.extend(self.neighbours(t).iter().map(|&u| new_of_old[u as usize]));
+            neighbour_start.push(neighbour_list.len() as u32);
+            curved.extend_from_slice(self.curved_edges(t));
+            curved_start.push(curved.len() as u32);
+        }
+        let of_triangle: Vec<u32> = (0..n).map(|new| patch_of[old(new)]).collect();
+        let mut surface = Surface {
+            triangles: (0..n).map(|i| self.triangles[old(i)]).collect(),
+            corners: (0..n).map(|i| self.corners[old(i)]).collect(),
+            areas: (0..n).map(|i| self.areas[old(i)]).collect(),
+            triangle_edges: (0..n).map(|i| self.triangle_edges[old(i)]).collect(),
+            vertex_triangles: self
+                .vertex_triangles
+                .iter()
+                .map(|&t| new_of_old[t as usize])
+                .collect(),
+            neighbour_start,
+            neighbour_list,
+            curved_start,
+            curved,
+            positions: self.positions,
+            edges: self.edges,
+            vertex_start: self.vertex_start,
+            patches: Patches::default(),
+        };
+        let count = start.len() - 1;
+        let mut patches = Patches {
+            of_triangle,
+            area: Vec::with_capacity(count),
+            moment: Vec::with_capacity(count),
+            centre: Vec::with_capacity(count),
+            radius: Vec::with_capacity(count),
+            border_start: vec![0],
+            border: Vec::new(),
+            start,
+        };
+        for p in 0..count {
+            let range = patches.start[p] as usize..patches.start[p + 1] as usize;
+            let corners = &surface.corners[range.clone()];
+            let centre = corners.iter().flatten().fold(Vec3::ZERO, |a, &q| a + q)
+                * (1.0 / (3 * corners.len()) as f64);
+            patches.centre.push(centre);
+            patches.radius.push(
+                corners
+                    .iter()
+                    .flatten()
+                    .map(|q| q.dist(centre))
+                    .fold(0.0, f64::max),
+            );
+            let mut area = 0.0;
+            let mut moment = Vec3::ZERO;
+            for t in range.clone() {
+                let c = surface.corners[t];
+                area += surface.areas[t];
+                moment += (c[0] + c[1] + c[2]) * (surface.areas[t] / 3.0);
+            }
+            patches.area.push(area);
+            patches.moment.push(moment);
+            let mut border: Vec<u32> = range
+                .flat_map(|t| surface.neighbours(t as u32).iter().copied())
+                .filter(|&u| patches.of_triangle[u as usize] != p as u32)
+                .collect();
+            border.sort_unstable();
+            border.dedup();
+            patches.border.extend(border);
+            patches.border_start.push(patches.border.len() as u32);
+        }
+        surface.patches = patches;
+        surface
+    }
+
+    /// The patch triangle `t` belongs to.
+    pub fn patch_of(&self, t: u32) -> u32 {
+        self.patches.of_triangle[t as usize]
+    }
+
+    /// The triangles of patch `p` (a contiguous range of ids).
+    pub fn patch_triangles(&self, p: u32) -> std::ops::Range<u32> {
+        self.patches.start[p as usize]..self.patches.start[p as usize + 1]
+    }
+
+    /// Number of patches.
+    pub fn patch_count(&self) -> usize {
+        self.patches.area.len()
+    }
+
+    /// Centre and radius of a sphere around patch `p`.
+    pub fn patch_bounds(&self, p: u32) -> (Vec3, f64) {
+        (
+            self.patches.centre[p as usize],
+            self.patches.radius[p as usize],
+        )
+    }
+
+    /// Area of patch `p` and the area-weighted sum of its triangles'
+    /// centroids.
+    pub fn patch_area(&self, p: u32) -> (f64, Vec3) {
+        (
+            self.patches.area[p as usize],
+            self.patches.moment[p as usize],
+        )
+    }
+
+    /// The curved edges the triangles of patch `p` own.
+    pub fn patch_curved_edges(&self, p: u32) -> &[CurvedEdge] {
+        let r = self.patch_triangles(p);
+        let (a, b) = (
+            self.curved_start[r.start as usize],
+            self.curved_start[r.end as usize],
+        );
+        &self.curved[a as usize..b as usize]
+    }
+
+    /// Triangles outside patch `p` that share an edge with it.
+    pub fn patch_border(&self, p: u32) -> &[u32] {
+        let (a, b) = (
+            self.patches.border_start[p as usize],
+            self.patches.border_start[p as usize + 1],
+        );
+        &self.patches.border[a as usize..b as usize]
     }
 
     /// Number of welded vertices.
@@ -408,5 +605,47 @@ mod tests {
             let n = s.neighbours(t);
             assert_eq!(n.len(), 3, "triangle {t}");
         }
+    }
+
+    #[test]
+    fn patches_are_small_connected_and_cover_every_triangle_once() {
+        let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 24, 48));
+        let mut seen = vec![0; s.triangles().len()];
+        for p in 0..s.patch_count() as u32 {
+            let tris: Vec<u32> = s.patch_triangles(p).collect();
+            assert!(!tris.is_empty() && tris.len() <= Patches::SIZE);
+            // Connected: a walk inside the patch reaches all of it.
+            let mut reached = vec![tris[0]];
+            let mut i = 0;
+            while i < reached.len() {
+                for &n in s.neighbours(reached[i]) {
+                    if s.patch_of(n) == p && !reached.contains(&n) {
+                        reached.push(n);
+                    }
+                }
+                i += 1;
+            }
+            assert_eq!(reached.len(), tris.len(), "patch {p}");
+            for &t in &tris {
+                seen[t as usize] += 1;
+                assert_eq!(s.patch_of(t), p);
+            }
+            let (centre, radius) = s.patch_bounds(p);
+            for &t in &tris {
+                assert!(
+                    s.corners(t)
+                        .iter()
+                        .all(|q| q.dist(centre) <= radius + 1e-12)
+                );
+            }
+            for &b in s.patch_border(p) {
+                assert_ne!(s.patch_of(b), p);
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1));
+        let edges: usize = (0..s.patch_count() as u32)
+            .map(|p| s.patch_curved_edges(p).len())
+            .sum();
+        assert_eq!(edges, s.edges.iter().filter(|e| e.angle != 0.0).count());
     }
 }
