@@ -13,7 +13,7 @@ which=${1:-all}
 build_plain() {
   # rayon falls back to the calling thread where threads cannot be spawned,
   # so the plain build runs the same parallel code on one thread.
-  CARGO_TARGET_DIR=target-wasm wasm-pack build --release --target web --no-pack \
+  RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack build --release --target web --no-pack \
     --out-dir pkg/plain --out-name fast_reject -- --no-default-features --features parallel
 }
 
@@ -23,7 +23,7 @@ build_threads() {
   # TLS symbols wasm-bindgen's thread support initializes on every worker.
   local link_args=(--shared-memory --max-memory=1073741824 --import-memory
     --export=__wasm_init_tls --export=__tls_size --export=__tls_align --export=__tls_base)
-  local flags="-C target-feature=+atomics,+bulk-memory,+mutable-globals"
+  local flags="$WASM_RUSTFLAGS -C target-feature=+atomics,+bulk-memory,+mutable-globals"
   for arg in "${link_args[@]}"; do flags+=" -C link-arg=$arg"; done
   RUSTUP_TOOLCHAIN=$WASM_THREADS_TOOLCHAIN RUSTFLAGS=$flags \
     CARGO_UNSTABLE_BUILD_STD=panic_abort,std CARGO_TARGET_DIR=target-wasm-threads \

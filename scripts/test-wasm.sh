@@ -29,11 +29,16 @@ mkdir -p target-wasm/native
 target/release/fast-reject match "$shared/scenes/zoo-bunny/scene.glb" \
   --template "$shared/scenes/zoo-bunny/template.glb" --json > target-wasm/native/zoo-bunny.json
 
+step "clippy for the wasm32 binding and its tests"
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm cargo clippy --release \
+  --target wasm32-unknown-unknown --no-default-features --features parallel \
+  --lib --test wasm -- -D warnings
+
 step "wasm-bindgen-test in Node"
-CARGO_TARGET_DIR=target-wasm wasm-pack test --release --node -- \
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --node -- \
   --no-default-features --features parallel --test wasm
 step "wasm-bindgen-test in headless Chromium"
-CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
   --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel --test wasm
 
 step "build pkg/ (plain and threaded)"

@@ -201,6 +201,6 @@ export function memoryBytes() {
 }
 
 /** How many distinct threads ran `tasks` small pieces of parallel work (1 in the plain build). */
-export function threadsUsed(tasks = 64) {
+export function threadsUsed(tasks = 1024) {
   return call((glue) => glue.threadsUsed(tasks));
 }

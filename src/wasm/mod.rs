@@ -75,7 +75,8 @@ pub fn thread_count() -> usize {
     1
 }
 
-/// Runs `tasks` small pieces of work through the same backend as matching
+/// Runs `tasks` small pieces of work (at least a few hundred: the backend hands
+/// out chunks of 64) through the same backend as matching
 /// and returns how many distinct threads executed them: the evidence that a
 /// threaded build really runs in parallel (a pool that exists but is never
 /// used would report 1).
@@ -85,7 +86,7 @@ pub fn threads_used(tasks: u32) -> usize {
         // Enough work per task that one thread cannot drain the queue
         // before the others wake up.
         let mut x = i as u64 | 1;
-        for _ in 0..200_000 {
+        for _ in 0..50_000 {
             x = x
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);

@@ -27,7 +27,7 @@ onmessage = async ({ data: job }) => {
     scene.free();
     postMessage({
       info,
-      threadsUsed: threadsUsed(64),
+      threadsUsed: threadsUsed(1024),
       layers,
       wallMs,
       memoryBytes: memoryBytes(),
