@@ -15,7 +15,7 @@
 mod options;
 
 use std::ops::ControlFlow;
-use std::sync::Mutex;
+use std::sync::{Mutex, Once};
 
 use js_sys::{Float64Array, Function, Object, Reflect};
 use wasm_bindgen::prelude::*;
@@ -47,16 +47,20 @@ extern "C" {
 /// afterwards to explain the failure before it restarts the module.
 static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 
-/// Runs when the module is instantiated (on every thread of the threaded
-/// build).
-#[wasm_bindgen(start)]
-fn start() {
-    set_clock(performance_now);
-    std::panic::set_hook(Box::new(|info| {
-        if let Ok(mut last) = LAST_PANIC.lock() {
-            *last = Some(info.to_string());
-        }
-    }));
+/// Installs the clock and the panic hook once, from every entry point that
+/// starts work: a `#[wasm_bindgen(start)]` function is not run by every
+/// host (wasm-bindgen-test skips it), and without the clock every timing
+/// would read 0.
+fn ensure_started() {
+    static STARTED: Once = Once::new();
+    STARTED.call_once(|| {
+        set_clock(performance_now);
+        std::panic::set_hook(Box::new(|info| {
+            if let Ok(mut last) = LAST_PANIC.lock() {
+                *last = Some(info.to_string());
+            }
+        }));
+    });
 }
 
 /// The message of the panic that trapped the module, if one did.
@@ -128,6 +132,7 @@ fn js_error(error: Error) -> JsError {
 /// A parsed mesh, kept so that a scene can be voxelized again at another
 /// resolution without reloading.
 fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), JsError> {
+    ensure_started();
     let start = now_ms();
     let format = options::parse_format(format.as_deref())?;
     let mesh = load(bytes, format).map_err(js_error)?;
@@ -195,6 +200,7 @@ impl SceneHandle {
         options: JsValue,
         on_layer: Option<Function>,
     ) -> Result<JsValue, JsError> {
+        ensure_started();
         let settings = options::MatchSettings::from_js(&options)?;
         if let Some(resolution) = settings.resolution
             && resolution != self.scene.resolution()
