@@ -14,14 +14,14 @@ here=$(pwd)
 shared=${FAST_REJECT_SHARED:-$here/../shared}
 step() { printf '\n== test-wasm: %s\n' "$*"; }
 
-step "core tests on wasm32-wasip1 under wasmtime"
+step "core tests (unit, errors, the shared scenes, serial = parallel) on wasm32-wasip1 under wasmtime"
 # The tests read ../shared through paths under the repository's parent,
 # so that folder is the one the sandbox opens.
 parent=$(cd .. && pwd)
 CARGO_TARGET_DIR=target-wasip1 \
   CARGO_TARGET_WASM32_WASIP1_RUNNER="$WASMTIME run --dir $parent::$parent" \
   cargo test --release --target wasm32-wasip1 --no-default-features --features parallel \
-  --lib --test errors
+  --lib --test errors --test scenes --test backends
 
 step "native reference result for the wasm-bindgen tests"
 cargo build --release --bin fast-reject

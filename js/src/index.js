@@ -55,7 +55,10 @@ async function instantiate({ build = 'auto', threads } = {}) {
     : new URL('./plain/fast_reject_bg.wasm', import.meta.url);
   let source = wasmUrl;
   if (isNode) {
-    const { readFile } = await import('node:fs/promises');
+    // A computed specifier: bundlers for the browser must not try to
+    // resolve Node's file system module.
+    const fsModule = 'node:fs/promises';
+    const { readFile } = await import(/* @vite-ignore */ /* webpackIgnore: true */ fsModule);
     source = await readFile(wasmUrl);
   }
   await glue.default({ module_or_path: source });
