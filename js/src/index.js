@@ -3,7 +3,9 @@
 // SharedArrayBuffer and more than one core) and the plain build everywhere
 // else, Node included. Both builds export the same API; this file wraps it
 // so that callers never see which one runs, get real `Error`s for bad
-// arguments, and cannot use a handle after `free()`.
+// arguments, and cannot use a handle after `free()`. A WebGPU build (a later
+// issue) fits the same scheme: one more directory with the same exports,
+// chosen in `instantiate` where `navigator.gpu` gives an adapter.
 
 let loading = null;
 let loaded = null;

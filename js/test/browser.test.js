@@ -25,3 +25,16 @@ test('threaded build in Chromium: two threads, same instances as plain', { timeo
     `zoo-bunny in Chromium: plain ${plain.wallMs.toFixed(0)} ms, threaded (2) ${threaded.wallMs.toFixed(0)} ms`,
   );
 });
+
+test('threaded build near its memory cap: a large grid runs, a larger one is an Error', { timeout: 300_000 }, async () => {
+  // The threaded build has 1 GiB of shared memory; the grid cap (a quarter
+  // of it) must leave room for everything else a search allocates.
+  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 1100 }]);
+  assert.equal(large.info.memoryLimitBytes, 2 ** 30);
+  assert.ok(large.instances.length > 0);
+  assert.ok(large.memoryBytes < 2 ** 30);
+  await assert.rejects(
+    runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 2048 }]),
+    /lower the resolution/,
+  );
+});
