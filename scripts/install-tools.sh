@@ -5,6 +5,9 @@
 #
 #   bash scripts/install-tools.sh
 #
+# On a machine shared with other builds, CARGO_BUILD_JOBS=1 keeps the two
+# cargo installs (about 4 minutes together) polite.
+#
 # Versions are pinned where a mismatch costs time or breaks the build:
 # wasm-bindgen-cli must equal the `wasm-bindgen` crate in Cargo.lock, or
 # wasm-pack fetches one from GitHub (unreachable here) and then compiles it.
@@ -30,11 +33,11 @@ bindgen_version=$(awk '/^name = "wasm-bindgen"$/ { getline; gsub(/[^0-9.]/, "");
 if [[ $(wasm-bindgen --version 2>/dev/null) != "wasm-bindgen $bindgen_version" ]]; then
   log "wasm-bindgen-cli $bindgen_version"
   # No --locked: its lock file names a version the registry no longer has.
-  CARGO_BUILD_JOBS=${CARGO_BUILD_JOBS:-1} cargo install wasm-bindgen-cli --version "$bindgen_version" --force
+  cargo install wasm-bindgen-cli --version "$bindgen_version" --force
 fi
 if [[ $(wasm-pack --version 2>/dev/null) != "wasm-pack $WASM_PACK_VERSION" ]]; then
   log "wasm-pack $WASM_PACK_VERSION"
-  CARGO_BUILD_JOBS=${CARGO_BUILD_JOBS:-1} cargo install wasm-pack --version "$WASM_PACK_VERSION" --locked --force
+  cargo install wasm-pack --version "$WASM_PACK_VERSION" --locked --force
 fi
 
 # Debian packages: wasm-opt (binaryen), Chromium and its driver, Node.
