@@ -29,7 +29,7 @@ use crate::scene::Scene;
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
 
-pub use options::{memory_limit_bytes, scene_options};
+use options::{memory_limit_bytes, scene_options};
 
 /// Re-exported so that JavaScript can call `initThreadPool(n)` on the
 /// threaded build.
@@ -43,8 +43,8 @@ extern "C" {
     fn performance_now() -> f64;
 }
 
-/// The last panic's message: a trap loses it, so the JS side asks for it
-/// afterwards to explain the failure before it restarts the module.
+/// The last panic's message: the trap that follows a panic carries none, so
+/// the JS side asks for it afterwards to explain why the module stopped.
 static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 
 /// Installs the clock and the panic hook once, from every entry point that
@@ -79,11 +79,11 @@ pub fn thread_count() -> usize {
     1
 }
 
-/// Runs `tasks` small pieces of work (at least a few hundred: the backend hands
-/// out chunks of 64) through the same backend as matching
+/// Runs `tasks` small pieces of work through the same backend as matching
 /// and returns how many distinct threads executed them: the evidence that a
 /// threaded build really runs in parallel (a pool that exists but is never
-/// used would report 1).
+/// used would report 1). Pass a few hundred tasks: the backend hands out
+/// chunks of at least 64.
 #[wasm_bindgen(js_name = threadsUsed)]
 pub fn threads_used(tasks: u32) -> usize {
     let ran_on = crate::exec::Backend::Parallel.map(tasks as usize, |i| {
@@ -98,15 +98,15 @@ pub fn threads_used(tasks: u32) -> usize {
         std::hint::black_box(x);
         current_thread_index()
     });
-    let mut distinct: Vec<usize> = ran_on;
-    distinct.sort_unstable();
-    distinct.dedup();
-    distinct.len()
+    let mut threads = ran_on;
+    threads.sort_unstable();
+    threads.dedup();
+    threads.len()
 }
 
 fn current_thread_index() -> usize {
     #[cfg(feature = "parallel")]
-    return rayon::current_thread_index().map_or(usize::MAX, |i| i);
+    return rayon::current_thread_index().unwrap_or(usize::MAX);
     #[cfg(not(feature = "parallel"))]
     usize::MAX
 }
@@ -129,8 +129,8 @@ fn js_error(error: Error) -> JsError {
     JsError::new(&error.to_string())
 }
 
-/// A parsed mesh, kept so that a scene can be voxelized again at another
-/// resolution without reloading.
+/// Parses a mesh in the named format (or the one its content shows), with
+/// the time it took for the report's `load`.
 fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), JsError> {
     ensure_started();
     let start = now_ms();
