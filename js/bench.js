@@ -4,6 +4,7 @@
 // peak wasm memory. Best of N runs of the search's total time (parse,
 // voxelize, template, match, group). Run by scripts/bench-wasm.sh.
 import { execFileSync } from 'node:child_process';
+import { writeFileSync } from 'node:fs';
 import { fileURLToPath } from 'node:url';
 
 import { runInBrowser } from './test/browser.js';
@@ -15,6 +16,22 @@ const runs = Number(process.env.BENCH_RUNS ?? 3);
 
 function cli(command, args) {
   return JSON.parse(execFileSync(command[0], [...command.slice(1), ...args], { encoding: 'utf8', maxBuffer: 1 << 26 }));
+}
+
+/**
+ * On a machine shared with other work, BENCH_NICE=-10 (as root) gives this
+ * benchmark's processes the CPU first, so that two threads really get two
+ * cores. Chromium starts in a session of its own, so its scheduler group
+ * (autogroup) is raised as well.
+ */
+const nice = process.env.BENCH_NICE;
+function raiseChromium() {
+  if (nice === undefined) return;
+  const children = execFileSync('ps', ['-o', 'pid=,comm=', '--ppid', String(process.pid)], { encoding: 'utf8' });
+  for (const line of children.trim().split('\n')) {
+    const [pid, comm] = line.trim().split(/\s+/);
+    if (comm?.startsWith('chrom')) writeFileSync(`/proc/${pid}/autogroup`, nice);
+  }
 }
 
 function best(n, f) {
@@ -38,7 +55,7 @@ for (const scene of scenes) {
   });
   const jobs = [];
   for (let i = 0; i < runs; i++) jobs.push({ build: 'plain', scene }, { build: 'threads', scene });
-  const browser = await runInBrowser(jobs, { threads: 2 });
+  const browser = await runInBrowser(jobs, { threads: 2, afterLaunch: raiseChromium });
   const pick = (build) => {
     const mine = browser.filter((r) => r.info.build === build);
     return mine.reduce((a, b) => (b.timings.total < a.timings.total ? b : a));

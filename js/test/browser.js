@@ -60,15 +60,18 @@ export async function startServer() {
 
 /**
  * Opens the page and runs `jobs` (see page/worker.js), each in a fresh
- * worker; returns their results. `threads` limits Chromium's reported cores.
+ * worker; returns their results. `threads` is the threaded build's pool
+ * size; `afterLaunch` runs once Chromium is up (the benchmark raises its
+ * priority there).
  */
-export async function runInBrowser(jobs, { threads = 2 } = {}) {
+export async function runInBrowser(jobs, { threads = 2, afterLaunch } = {}) {
   const { server, origin } = await startServer();
   const browser = await chromium.launch({
     executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
     args: CHROMIUM_FLAGS,
   });
   try {
+    await afterLaunch?.();
     const page = await browser.newPage();
     const errors = [];
     page.on('pageerror', (error) => errors.push(error));
