@@ -45,6 +45,9 @@ cp js/src/index.js js/src/index.d.ts pkg/
 mkdir -p pkg/bin
 cp js/src/bin/fast-reject.js pkg/bin/
 chmod +x pkg/bin/fast-reject.js
+# The demo scene of `fast-reject demo`, as in the native CLI.
+mkdir -p pkg/demo
+cp assets/demo/scene.glb assets/demo/template.glb pkg/demo/
 version=$(awk -F'"' '/^version = / { print $2; exit }' Cargo.toml)
 sed "s/@VERSION@/$version/" js/package.pkg.json > pkg/package.json
 cp js/PACKAGE-README.md pkg/README.md

@@ -49,13 +49,17 @@ bash scripts/build-wasm.sh all
 step "JS API in Node, threaded build in Chromium"
 (cd js && node --test test/api.test.js test/browser.test.js)
 
-step "the fast-reject bin on zoo-bunny, scored by evaluate.py"
+step "the fast-reject bin on zoo-bunny and select-cow-head, scored by evaluate.py"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 node pkg/bin/fast-reject.js match "$shared/scenes/zoo-bunny/scene.glb" \
   --template "$shared/scenes/zoo-bunny/template.glb" --json > "$out/zoo-bunny.json"
 # Exits non-zero unless every instance is found with no false positive.
 python3 "$shared/bench/evaluate.py" "$shared/scenes/zoo-bunny/truth.json" "$out/zoo-bunny.json"
+# A selection sphere instead of a template file, scored the same way.
+select=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['select']; print(','.join(map(repr, s['center'] + [s['radius']])))" "$shared/scenes/select-cow-head/truth.json")
+node pkg/bin/fast-reject.js match "$shared/scenes/select-cow-head/scene.glb" --select="$select" --json > "$out/select-cow-head.json"
+python3 "$shared/bench/evaluate.py" "$shared/scenes/select-cow-head/truth.json" "$out/select-cow-head.json" --select
 
 step "npm pack, imported by a bundler and by tsc"
 bash js/test/package-test.sh

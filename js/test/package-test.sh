@@ -26,7 +26,12 @@ node --input-type=module -e "
   catch (e) { if (!/unrecognized mesh data/.test(e.message)) throw e; }
   console.log('ok:', JSON.stringify(info));
 "
-test -x node_modules/.bin/fast-reject
+# The bin, with the demo scene the tarball carries.
+node_modules/.bin/fast-reject demo --json | node -e "
+  const report = JSON.parse(require('fs').readFileSync(0, 'utf8'));
+  if (report.instances.length !== 3) throw new Error('the demo has 3 mugs, found ' + report.instances.length);
+  console.log('ok: fast-reject demo found 3 instances');
+"
 
 echo "-- tsc checks a program against the package's types"
 cat > src/main.ts <<'TS'

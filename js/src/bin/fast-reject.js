@@ -1,12 +1,14 @@
 #!/usr/bin/env node
-// The native CLI's `match` command through the WebAssembly build, so that
-// native and wasm results and times can be compared on the same scenes:
+// The native CLI through the WebAssembly build, so that native and wasm
+// results and times can be compared on the same scenes:
 //   fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
 //               [--descriptor D] [--resolution N] [--threads N] [--layers K]
 //               [--volume-threshold T] [--harmonics-threshold T]
 //               [--verify-threshold T] [--hidden-surface T] [--json]
+//   fast-reject demo [--json]     the demo scene and template shipped in demo/
 import { readFile } from 'node:fs/promises';
 import { extname } from 'node:path';
+import { fileURLToPath } from 'node:url';
 import { parseArgs } from 'node:util';
 
 import { Scene, Template, init, memoryBytes } from '../index.js';
@@ -15,7 +17,8 @@ const USAGE = `usage: fast-reject match SCENE (--template FILE | --select X,Y,Z,
                    [--descriptor volume+harmonics|volume|harmonics] [--resolution N]
                    [--threads N] [--layers K] [--volume-threshold T]
                    [--harmonics-threshold T] [--verify-threshold T]
-                   [--hidden-surface T] [--json]`;
+                   [--hidden-surface T] [--json]
+       fast-reject demo [--json]`;
 
 /** Numeric flags and the match option each one sets. */
 const NUMERIC_FLAGS = {
@@ -47,16 +50,27 @@ function parseCommandLine(argv) {
     help: { type: 'boolean', short: 'h' },
   };
   for (const flag of Object.keys(NUMERIC_FLAGS)) options[flag] = { type: 'string' };
+  // Values may start with '-' (a negative coordinate in --select): join each
+  // valued flag with its value so that parseArgs never takes it for a flag.
+  const valued = new Set(Object.keys(options).filter((k) => options[k].type === 'string').map((k) => `--${k}`));
+  const args = [];
+  for (let i = 0; i < argv.length; i++) {
+    args.push(valued.has(argv[i]) && i + 1 < argv.length ? `${argv[i]}=${argv[++i]}` : argv[i]);
+  }
   let parsed;
   try {
-    parsed = parseArgs({ args: argv, options, allowPositionals: true });
+    parsed = parseArgs({ args, options, allowPositionals: true });
   } catch (error) {
     throw new UsageError(error.message);
   }
   const { values, positionals } = parsed;
   if (values.help) return { help: true };
+  if (positionals[0] === 'demo' && positionals.length === 1) {
+    const demo = (name) => fileURLToPath(new URL(`../demo/${name}`, import.meta.url));
+    return { scene: demo('scene.glb'), template: demo('template.glb'), json: !!values.json, match: {} };
+  }
   if (positionals[0] !== 'match' || positionals.length !== 2) {
-    throw new UsageError('expected: match SCENE');
+    throw new UsageError('expected: match SCENE, or demo');
   }
   if ((values.template === undefined) === (values.select === undefined)) {
     throw new UsageError('give exactly one of --template FILE and --select X,Y,Z,R');
