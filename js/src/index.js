@@ -102,7 +102,7 @@ function call(f) {
       } catch {
         // The message is a courtesy; the trap is what matters.
       }
-      loaded.broken = `fast-reject: internal error (${why || error.message}); load the page or process again`;
+      loaded.broken = `fast-reject: internal error (${why || error.message}); the module cannot be used any more: start a new worker or process`;
       throw new Error(loaded.broken, { cause: error });
     }
     throw error;
