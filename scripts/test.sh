@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Every test: the Rust suites (unit oracles, the shared scenes, bad input,
 # the CLI, serial = parallel), then the CLI scored by the shared
-# evaluate.py on the scenes the defaults must match perfectly, and a report
-# on the others.
+# evaluate.py on the scenes the defaults must match perfectly, a report on
+# the others, and the WebAssembly tests (scripts/test-wasm.sh; its tools
+# come from scripts/install-tools.sh). FAST_REJECT_SKIP_WASM=1 skips those.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test --release
@@ -11,3 +12,6 @@ echo "== evaluate.py on the required scenes"
 scripts/evaluate.sh zoo-bunny remeshed-cow crowd-rocker select-cow-head fused-homer cluttered-bunny
 echo "== evaluate.py on the scenes of later issues (reported, not required)"
 scripts/evaluate.sh --report-only twisted-homer
+if [[ ${FAST_REJECT_SKIP_WASM:-0} != 1 ]]; then
+  bash scripts/test-wasm.sh
+fi

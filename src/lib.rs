@@ -17,5 +17,8 @@ pub mod search;
 pub mod template;
 pub mod verify;
 pub mod voxel;
+// The JavaScript binding, for browsers and Node only (not WASI).
+#[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
+pub mod wasm;
 
 pub use error::{Error, Format, Result};

@@ -389,7 +389,7 @@ pub fn search(
         backend,
     );
     let verified: Vec<Verified> = backend
-        .map(bests.len(), |i| {
+        .map_each(bests.len(), |i| {
             let v = scene.skin()[bests[i].point as usize];
             let placement = verifier.check(scene.solid(), scene.near_surface(), v);
             Verified {

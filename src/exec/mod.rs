@@ -107,6 +107,23 @@ impl Backend {
     {
         self.filter_map(len, |i| Some(f(i)))
     }
+
+    /// Like [`Backend::map`] for a few expensive items (milliseconds each,
+    /// such as verifying a placement): every item may go to its own thread,
+    /// where `map` hands out at least 64 at a time and so runs a short list
+    /// on one thread.
+    pub fn map_each<R, F>(self, len: usize, f: F) -> Vec<R>
+    where
+        R: Send,
+        F: Fn(usize) -> R + Sync + Send,
+    {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            return (0..len).into_par_iter().map(f).collect();
+        }
+        (0..len).map(f).collect()
+    }
 }
 
 #[cfg(test)]
@@ -120,6 +137,10 @@ mod tests {
         assert_eq!(
             Backend::Serial.filter_map(10_000, f),
             Backend::Parallel.filter_map(10_000, f)
+        );
+        assert_eq!(
+            Backend::Serial.map_each(100, |i| i * i),
+            Backend::Parallel.map_each(100, |i| i * i)
         );
         for b in [Backend::Serial, Backend::Parallel] {
             let sum = AtomicUsize::new(0);

@@ -1,0 +1,125 @@
+/** Which build runs and how. */
+export interface BuildInfo {
+  /** 'threads' in a cross-origin isolated Web Worker with several cores, 'plain' otherwise. */
+  build: 'plain' | 'threads';
+  /** Threads the matcher runs on. */
+  threads: number;
+  /** Bytes the module's memory may grow to (voxel grids are capped from it). */
+  memoryLimitBytes: number;
+}
+
+export interface InitOptions {
+  /** 'auto' (default) picks 'threads' where threadsSupported() is true. */
+  build?: 'auto' | 'plain' | 'threads';
+  /** Pool size for the threaded build (default: navigator.hardwareConcurrency). */
+  threads?: number;
+}
+
+/** Loads the WebAssembly module once; call it (and await it) before anything else. */
+export function init(options?: InitOptions): Promise<BuildInfo>;
+
+/** Whether this context can run the threaded build. */
+export function threadsSupported(): boolean;
+
+/** Linear memory the module holds now; after a search, its peak. */
+export function memoryBytes(): number;
+
+/** How many distinct threads ran `tasks` pieces of parallel work (1 in the plain build). */
+export function threadsUsed(tasks?: number): number;
+
+/** A mesh format, by its file extension. */
+export type MeshFormat = 'glb' | 'gltf' | 'obj' | 'ply' | 'stl';
+
+/** Bytes of a mesh file. */
+export type MeshBytes = Uint8Array | ArrayBuffer | ArrayBufferView;
+
+export interface SceneOptions {
+  /** The format; recognized from the content when absent. */
+  format?: MeshFormat;
+  /** Voxels along the scene's longest side (8..=16384, default 512). */
+  resolution?: number;
+}
+
+export interface MatchOptions {
+  /** 'volume+harmonics' (default), 'volume', 'harmonics', or any other descriptor the core knows. */
+  descriptor?: string;
+  /** Voxelize the scene again at this resolution (kept for later calls). */
+  resolution?: number;
+  /** Number of radii k (default 6). */
+  layers?: number;
+  /** Volume stage threshold (default 0.12). */
+  volumeThreshold?: number;
+  /** Harmonics stage threshold (default 0.8). */
+  harmonicsThreshold?: number;
+  /** Least share of the template's surface that must land on the scene (default 0.85). */
+  verifyThreshold?: number;
+  /** Largest share of a model template's surface other material may hide (default 0.3). */
+  hiddenSurface?: number;
+  /** Survivors within this share of r_k of a better one join its instance (default 1). */
+  groupRadius?: number;
+}
+
+/** One cascade layer, as reported to the progress callback and in `stages`. */
+export interface LayerStats {
+  descriptor: string;
+  layer: number;
+  radius: number;
+  candidates: number;
+  survivors: number;
+  ms: number;
+}
+
+export interface Instance {
+  /** Where the template's centre c_T lies in the scene. */
+  position: [number, number, number];
+  /** Final descriptor distance. */
+  distance: number;
+  /** Share of the placed template's surface that lies on the scene's (0..1). */
+  score: number;
+  /** Surviving points the instance gathered. */
+  support: number;
+}
+
+/** The native CLI's JSON (`fast-reject match --json`), plus typed arrays for drawing. */
+export interface MatchReport {
+  template: { center: [number, number, number]; radius: number };
+  instances: Instance[];
+  stages: LayerStats[];
+  grid: { resolution: number; voxel_size: number; skin_voxels: number };
+  timings_ms: { load: number; voxelize: number; template: number; match: number; group: number; total: number };
+  /** x, y, z of every instance, best first. */
+  instancePositions: Float64Array;
+  /** The radius of the ball each instance occupies (r_k). */
+  highlightRadius: number;
+  /** Threads the search ran on. */
+  threads: number;
+}
+
+/** Called after every cascade layer; return `false` (or throw) to cancel. */
+export type LayerCallback = (stats: LayerStats) => boolean | void;
+
+declare abstract class Handle {
+  /** Releases the wasm memory now; the handle cannot be used afterwards. */
+  free(): void;
+}
+
+export class Scene extends Handle {
+  private constructor();
+  /** Parses and voxelizes a scene; throws an Error with a readable message on bad input. */
+  static fromBytes(bytes: MeshBytes, options?: SceneOptions): Scene;
+  readonly resolution: number;
+  readonly voxelSize: number;
+  readonly skinVoxels: number;
+  readonly triangles: number;
+  /** Finds every occurrence of `template`; throws when cancelled or on bad options. */
+  match(template: Template, options?: MatchOptions, onLayer?: LayerCallback): MatchReport;
+}
+
+export class Template extends Handle {
+  private constructor();
+  /** A separate model. */
+  static fromBytes(bytes: MeshBytes, options?: { format?: MeshFormat }): Template;
+  /** The part of the scene inside a sphere (scene coordinates). */
+  static fromSelection(center: ArrayLike<number>, radius: number): Template;
+  readonly isSelection: boolean;
+}

@@ -1,0 +1,211 @@
+// The entry of the npm package `fast-reject`: loads the threaded build where
+// the page can run it (cross-origin isolated, inside a Web Worker, with
+// SharedArrayBuffer and more than one core) and the plain build everywhere
+// else, Node included. Both builds export the same API; this file wraps it
+// so that callers never see which one runs, get real `Error`s for bad
+// arguments, and cannot use a handle after `free()`. A WebGPU build (a later
+// issue) fits the same scheme: one more directory with the same exports,
+// chosen in `instantiate` where `navigator.gpu` gives an adapter.
+
+let loading = null;
+let loaded = null;
+
+const isNode = typeof process !== 'undefined' && !!process.versions?.node;
+
+/** Whether this context can run the threaded build. */
+export function threadsSupported() {
+  if (isNode) return false; // wasm-bindgen-rayon spawns Web Workers, which Node lacks
+  const isolated = globalThis.crossOriginIsolated === true;
+  const shared = typeof SharedArrayBuffer === 'function';
+  // The pool blocks its caller while it works: only a worker may block.
+  const inWorker = typeof WorkerGlobalScope !== 'undefined' && globalThis instanceof WorkerGlobalScope;
+  const cores = globalThis.navigator?.hardwareConcurrency ?? 1;
+  return isolated && shared && inWorker && cores > 1;
+}
+
+/**
+ * Loads a build once; later calls return the same info. Options: `build`
+ * ('auto' by default, 'plain' or 'threads') and `threads` (pool size,
+ * default: the number of cores).
+ */
+export function init(options = {}) {
+  if (!loading) {
+    loading = instantiate(options).then(
+      (module) => (loaded = module),
+      (error) => {
+        loading = null;
+        throw error;
+      },
+    );
+  }
+  return loading.then(info);
+}
+
+async function instantiate({ build = 'auto', threads } = {}) {
+  if (!['auto', 'plain', 'threads'].includes(build)) {
+    throw new Error(`fast-reject: build must be 'auto', 'plain' or 'threads', got ${String(build)}`);
+  }
+  const threaded = build === 'threads' || (build === 'auto' && threadsSupported());
+  if (threaded && !threadsSupported()) {
+    throw new Error(
+      'fast-reject: the threaded build needs a cross-origin isolated page (COOP/COEP headers), a Web Worker and SharedArrayBuffer',
+    );
+  }
+  const glue = threaded ? await import('./threads/fast_reject.js') : await import('./plain/fast_reject.js');
+  const wasmUrl = threaded
+    ? new URL('./threads/fast_reject_bg.wasm', import.meta.url)
+    : new URL('./plain/fast_reject_bg.wasm', import.meta.url);
+  let source = wasmUrl;
+  if (isNode) {
+    // A computed specifier: bundlers for the browser must not try to
+    // resolve Node's file system module.
+    const fsModule = 'node:fs/promises';
+    const { readFile } = await import(/* @vite-ignore */ /* webpackIgnore: true */ fsModule);
+    source = await readFile(wasmUrl);
+  }
+  await glue.default({ module_or_path: source });
+  if (threaded) {
+    const count = threads ?? globalThis.navigator.hardwareConcurrency;
+    await glue.initThreadPool(count);
+  }
+  return { glue, build: threaded ? 'threads' : 'plain', broken: null };
+}
+
+function info() {
+  return {
+    build: loaded.build,
+    threads: loaded.glue.threadCount(),
+    memoryLimitBytes: loaded.glue.memoryLimitBytes(),
+  };
+}
+
+function module() {
+  if (!loaded) throw new Error('fast-reject: call `await init()` before using the API');
+  if (loaded.broken) throw new Error(loaded.broken);
+  return loaded.glue;
+}
+
+/**
+ * Calls into wasm. A JS `Error` from the binding passes through untouched;
+ * a trap (a bug: input checks should make it impossible) marks the module
+ * unusable and says why, rather than failing later in confusing ways.
+ */
+function call(f) {
+  const glue = module();
+  try {
+    return f(glue);
+  } catch (error) {
+    if (error instanceof WebAssembly.RuntimeError) {
+      let why = '';
+      try {
+        why = glue.lastPanicMessage() ?? '';
+      } catch {
+        // The message is a courtesy; the trap is what matters.
+      }
+      loaded.broken = `fast-reject: internal error (${why || error.message}); the module cannot be used any more: start a new worker or process`;
+      throw new Error(loaded.broken, { cause: error });
+    }
+    throw error;
+  }
+}
+
+/** A Uint8Array view of bytes given as Uint8Array, ArrayBuffer or any typed array. */
+function asBytes(bytes, what) {
+  if (bytes instanceof Uint8Array) return bytes;
+  if (bytes instanceof ArrayBuffer || (typeof SharedArrayBuffer === 'function' && bytes instanceof SharedArrayBuffer)) {
+    return new Uint8Array(bytes);
+  }
+  if (ArrayBuffer.isView(bytes)) return new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  throw new TypeError(`fast-reject: the ${what} must be a Uint8Array or an ArrayBuffer, got ${typeof bytes}`);
+}
+
+function optionalString(value, name) {
+  if (value === undefined || value === null) return undefined;
+  if (typeof value !== 'string') throw new TypeError(`fast-reject: ${name} must be a string`);
+  return value;
+}
+
+function optionalNumber(value, name) {
+  if (value === undefined || value === null) return undefined;
+  if (typeof value !== 'number') throw new TypeError(`fast-reject: ${name} must be a number`);
+  return value;
+}
+
+class Handle {
+  #inner;
+  constructor(inner) {
+    this.#inner = inner;
+  }
+  /** The wasm object; throws once freed. */
+  get inner() {
+    if (!this.#inner) throw new Error(`fast-reject: this ${this.constructor.name} was freed`);
+    return this.#inner;
+  }
+  /** Releases the wasm memory now (it is not garbage-collected in time otherwise). */
+  free() {
+    if (this.#inner) {
+      this.#inner.free();
+      this.#inner = null;
+    }
+  }
+}
+
+/** A voxelized scene, searched any number of times. */
+export class Scene extends Handle {
+  static fromBytes(bytes, { format, resolution } = {}) {
+    const data = asBytes(bytes, 'scene');
+    const fmt = optionalString(format, 'format');
+    const res = optionalNumber(resolution, 'resolution');
+    return new Scene(call((glue) => glue.Scene.fromBytes(data, fmt, res)));
+  }
+  get resolution() {
+    return this.inner.resolution;
+  }
+  get voxelSize() {
+    return this.inner.voxelSize;
+  }
+  get skinVoxels() {
+    return this.inner.skinVoxels;
+  }
+  get triangles() {
+    return this.inner.triangles;
+  }
+  match(template, options = {}, onLayer) {
+    if (!(template instanceof Template)) throw new TypeError('fast-reject: match needs a Template');
+    if (onLayer !== undefined && typeof onLayer !== 'function') {
+      throw new TypeError('fast-reject: onLayer must be a function');
+    }
+    const scene = this.inner;
+    const inner = template.inner;
+    return call(() => scene.match(inner, options, onLayer));
+  }
+}
+
+/** What to look for: a model, or a part of the scene inside a sphere. */
+export class Template extends Handle {
+  static fromBytes(bytes, { format } = {}) {
+    const data = asBytes(bytes, 'template');
+    const fmt = optionalString(format, 'format');
+    return new Template(call((glue) => glue.Template.fromBytes(data, fmt)));
+  }
+  static fromSelection(center, radius) {
+    if (!center || center.length !== 3) {
+      throw new TypeError('fast-reject: a selection needs a centre [x, y, z] and a radius');
+    }
+    const [x, y, z] = Array.from(center, Number);
+    return new Template(call((glue) => glue.Template.fromSelection(x, y, z, Number(radius))));
+  }
+  get isSelection() {
+    return this.inner.isSelection;
+  }
+}
+
+/** Linear memory the module holds now; it never shrinks, so after a search this is the peak. */
+export function memoryBytes() {
+  return call((glue) => glue.memoryBytes());
+}
+
+/** How many distinct threads ran `tasks` small pieces of parallel work (1 in the plain build). */
+export function threadsUsed(tasks = 1024) {
+  return call((glue) => glue.threadsUsed(tasks));
+}

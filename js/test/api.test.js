@@ -1,0 +1,72 @@
+// The package's JS API in Node (the plain build): bad input of every kind is
+// a catchable Error with a readable message, and the module keeps working
+// for the next call; freed handles refuse further use.
+import assert from 'node:assert/strict';
+import { readFile } from 'node:fs/promises';
+import { test } from 'node:test';
+
+import { Scene, Template, init, memoryBytes, threadsUsed } from '../../pkg/index.js';
+
+const shared = new URL('../../../shared/scenes/', import.meta.url);
+const sceneBytes = await readFile(new URL('zoo-bunny/scene.glb', shared));
+const templateBytes = await readFile(new URL('zoo-bunny/template.glb', shared));
+
+test('the API refuses calls before init', () => {
+  assert.throws(() => Scene.fromBytes(sceneBytes), /call `await init\(\)`/);
+});
+
+test('Node gets the plain build on one thread', async () => {
+  const info = await init();
+  assert.equal(info.build, 'plain');
+  assert.equal(info.threads, 1);
+  assert.equal(threadsUsed(16), 1);
+  assert.ok(info.memoryLimitBytes >= 2 ** 30);
+});
+
+test('bad input is an Error and the module stays usable', async () => {
+  await init();
+  const cases = [
+    [() => Scene.fromBytes(new Uint8Array([1, 2, 3, 4, 5])), /unrecognized mesh data/],
+    [() => Scene.fromBytes(new Uint8Array(0)), /empty/],
+    [() => Scene.fromBytes(new ArrayBuffer(0)), /empty/],
+    [() => Scene.fromBytes('scene.glb'), /Uint8Array/],
+    [() => Template.fromBytes(sceneBytes.subarray(0, 100)), /malformed glTF/],
+    [() => Template.fromSelection([0, Number.NaN, 0], 1), /finite centre/],
+    [() => Template.fromSelection([0, 0, 0], -1), /positive radius/],
+    [() => Template.fromSelection([0, 0], 1), /centre \[x, y, z\]/],
+    [() => Scene.fromBytes(sceneBytes, { resolution: 16384 }), /lower the resolution/],
+    [() => Scene.fromBytes(sceneBytes, { resolution: 1e12 }), /resolution/],
+    [() => Scene.fromBytes(sceneBytes, { format: 'dwg' }), /format/],
+  ];
+  for (const [call, message] of cases) {
+    assert.throws(call, (error) => error instanceof Error && message.test(error.message), String(call));
+  }
+  const scene = Scene.fromBytes(sceneBytes, { resolution: 192 });
+  const template = Template.fromBytes(templateBytes);
+  for (const [options, message] of [
+    [{ descriptor: 'sift' }, /descriptor/],
+    [{ layers: Number.NaN }, /layers/],
+    [{ harmonicsThreshold: -1 }, /harmonics threshold/],
+    [{ resolution: 16384 }, /lower the resolution/],
+    [{ typo: 1 }, /unknown match option 'typo'/],
+  ]) {
+    assert.throws(() => scene.match(template, options), message);
+  }
+  assert.throws(() => scene.match(template, {}, () => false), /cancelled/);
+  assert.throws(() => scene.match(template, {}, () => { throw new Error('stop now'); }), /stop now/);
+  // The same handles still give a full search afterwards.
+  const layers = [];
+  const report = scene.match(template, {}, (stats) => { layers.push(stats); });
+  assert.equal(scene.resolution, 192);
+  assert.equal(layers.length, report.stages.length);
+  assert.deepEqual(layers.at(-1), report.stages.at(-1));
+  assert.ok(report.instancePositions instanceof Float64Array);
+  assert.equal(report.instancePositions.length, 3 * report.instances.length);
+  assert.equal(report.highlightRadius, report.template.radius);
+  assert.ok(memoryBytes() > 0);
+  template.free();
+  scene.free();
+  assert.throws(() => scene.resolution, /freed/);
+  assert.throws(() => scene.match(template), /freed/);
+  scene.free(); // twice is harmless
+});

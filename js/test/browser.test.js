@@ -1,0 +1,40 @@
+// Headless Chromium, cross-origin isolated: the threaded build really runs
+// on several threads and finds the same instances as the plain build.
+import assert from 'node:assert/strict';
+import { test } from 'node:test';
+
+import { runInBrowser } from './browser.js';
+
+test('threaded build in Chromium: two threads, same instances as plain', { timeout: 300_000 }, async () => {
+  const [plain, threaded] = await runInBrowser([
+    { build: 'plain', scene: 'zoo-bunny' },
+    { build: 'threads', scene: 'zoo-bunny' },
+  ]);
+  assert.equal(threaded.crossOriginIsolated, true);
+  assert.equal(plain.info.build, 'plain');
+  assert.equal(plain.info.threads, 1);
+  assert.equal(threaded.info.build, 'threads');
+  assert.equal(threaded.info.threads, 2);
+  // Work handed to the pool ran on both of its threads, not just one.
+  assert.equal(threaded.threadsUsed, 2);
+  assert.equal(plain.threadsUsed, 1);
+  assert.ok(threaded.layers > 0 && threaded.layers === plain.layers);
+  assert.ok(plain.instances.length > 0);
+  assert.deepEqual(threaded.instances, plain.instances);
+  console.log(
+    `zoo-bunny in Chromium: plain ${plain.wallMs.toFixed(0)} ms, threaded (2) ${threaded.wallMs.toFixed(0)} ms`,
+  );
+});
+
+test('threaded build near its memory cap: a large grid runs, a larger one is an Error', { timeout: 300_000 }, async () => {
+  // The threaded build has 1 GiB of shared memory; the grid cap (a quarter
+  // of it) must leave room for everything else a search allocates.
+  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 1100 }]);
+  assert.equal(large.info.memoryLimitBytes, 2 ** 30);
+  assert.ok(large.instances.length > 0);
+  assert.ok(large.memoryBytes < 2 ** 30);
+  await assert.rejects(
+    runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 2048 }]),
+    /lower the resolution/,
+  );
+});

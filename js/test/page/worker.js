@@ -1,0 +1,40 @@
+// Loads the package the way a viewer's worker would, runs one search and
+// reports instances, timings, threads and memory.
+import { Scene, Template, init, memoryBytes, threadsUsed } from '/pkg/index.js';
+
+async function bytes(url) {
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  return new Uint8Array(await response.arrayBuffer());
+}
+
+onmessage = async ({ data: job }) => {
+  try {
+    const info = await init({ build: job.build, threads: job.threads });
+    const [sceneBytes, templateBytes] = await Promise.all([
+      bytes(`/scenes/${job.scene}/scene.glb`),
+      bytes(`/scenes/${job.scene}/template.glb`),
+    ]);
+    const start = performance.now();
+    const scene = Scene.fromBytes(sceneBytes, { resolution: job.resolution });
+    const template = Template.fromBytes(templateBytes);
+    let layers = 0;
+    const report = scene.match(template, {}, () => {
+      layers += 1;
+    });
+    const wallMs = performance.now() - start;
+    template.free();
+    scene.free();
+    postMessage({
+      info,
+      threadsUsed: threadsUsed(1024),
+      layers,
+      wallMs,
+      memoryBytes: memoryBytes(),
+      instances: report.instances,
+      timings: report.timings_ms,
+    });
+  } catch (error) {
+    postMessage({ error: String(error?.stack ?? error) });
+  }
+};

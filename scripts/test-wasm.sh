@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The WebAssembly tests (run by scripts/test.sh after the native suites;
+# tools from scripts/install-tools.sh):
+#  1. the pure core's tests built for wasm32-wasip1, under wasmtime;
+#  2. the binding under wasm-bindgen-test, in Node and in headless Chromium,
+#     against the native command's result on the same scene;
+#  3. pkg/ (both builds) through its JS API in Node, the threaded build in
+#     cross-origin isolated headless Chromium, the `fast-reject` bin scored
+#     by ../shared/bench/evaluate.py, and `npm pack` imported by a bundler.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/wasm-env.sh
+here=$(pwd)
+shared=${FAST_REJECT_SHARED:-$here/../shared}
+step() { printf '\n== test-wasm: %s\n' "$*"; }
+
+step "core tests (unit, errors, the shared scenes, serial = parallel) on wasm32-wasip1 under wasmtime"
+# The tests read ../shared through paths under the repository's parent,
+# so that folder is the one the sandbox opens.
+parent=$(cd .. && pwd)
+CARGO_TARGET_DIR=target-wasip1 \
+  CARGO_TARGET_WASM32_WASIP1_RUNNER="$WASMTIME run --dir $parent::$parent" \
+  cargo test --release --target wasm32-wasip1 --no-default-features --features parallel \
+  --lib --test errors --test scenes --test backends
+
+step "native reference result for the wasm-bindgen tests"
+cargo build --release --bin fast-reject
+mkdir -p target-wasm/native
+target/release/fast-reject match "$shared/scenes/zoo-bunny/scene.glb" \
+  --template "$shared/scenes/zoo-bunny/template.glb" --json > target-wasm/native/zoo-bunny.json
+
+step "clippy for the wasm32 binding and its tests"
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm cargo clippy --release \
+  --target wasm32-unknown-unknown --no-default-features --features parallel \
+  --lib --test wasm -- -D warnings
+
+step "wasm-bindgen-test in Node"
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --node -- \
+  --no-default-features --features parallel --test wasm
+step "wasm-bindgen-test in headless Chromium"
+# The suite is not marked run_in_browser (it runs in Node too); this makes
+# the runner take it to the browser.
+WASM_BINDGEN_USE_BROWSER=1 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
+  --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel --test wasm
+
+step "build pkg/ (plain and threaded)"
+bash scripts/build-wasm.sh all
+
+step "JS API in Node, threaded build in Chromium"
+(cd js && node --test test/api.test.js test/browser.test.js)
+
+step "the fast-reject bin on zoo-bunny and select-cow-head, scored by evaluate.py"
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+node pkg/bin/fast-reject.js match "$shared/scenes/zoo-bunny/scene.glb" \
+  --template "$shared/scenes/zoo-bunny/template.glb" --json > "$out/zoo-bunny.json"
+# Exits non-zero unless every instance is found with no false positive.
+python3 "$shared/bench/evaluate.py" "$shared/scenes/zoo-bunny/truth.json" "$out/zoo-bunny.json"
+# A selection sphere instead of a template file, scored the same way.
+select=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['select']; print(','.join(map(repr, s['center'] + [s['radius']])))" "$shared/scenes/select-cow-head/truth.json")
+node pkg/bin/fast-reject.js match "$shared/scenes/select-cow-head/scene.glb" --select="$select" --json > "$out/select-cow-head.json"
+python3 "$shared/bench/evaluate.py" "$shared/scenes/select-cow-head/truth.json" "$out/select-cow-head.json" --select
+
+step "npm pack, imported by a bundler and by tsc"
+bash js/test/package-test.sh
+step "all wasm tests passed"

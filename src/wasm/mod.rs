@@ -1,0 +1,356 @@
+//! The JavaScript binding (wasm32-unknown-unknown only): handles for a
+//! scene and a template, one `match` call with a progress callback, and
+//! reports as plain objects with typed arrays.
+//!
+//! Nothing else in the crate imports wasm-bindgen. The npm package wraps
+//! these exports in `js/src/index.js`, which picks the plain or the threaded
+//! build; the matching itself is the same rayon code in both (rayon runs on
+//! the calling thread in the plain build, on Web Workers in the threaded one).
+//!
+//! A panic on wasm32 is a trap that leaves the instance unusable, so every
+//! input is validated here or by the core and comes back as a JS `Error`
+//! carrying the core's message; grids are capped below what the module's
+//! memory can hold.
+
+mod options;
+
+use std::ops::ControlFlow;
+use std::sync::{Mutex, Once};
+
+use js_sys::{Float64Array, Function, Object, Reflect};
+use wasm_bindgen::prelude::*;
+
+use crate::cascade::LayerStats;
+use crate::clock::{now_ms, set_clock};
+use crate::error::Error;
+use crate::mesh::TriMesh;
+use crate::mesh::io::load;
+use crate::scene::Scene;
+use crate::search::{MatchReport, search};
+use crate::template::TemplateSource;
+
+use options::{memory_limit_bytes, scene_options};
+
+/// Re-exported so that JavaScript can call `initThreadPool(n)` on the
+/// threaded build.
+#[cfg(feature = "threads")]
+pub use wasm_bindgen_rayon::init_thread_pool;
+
+#[wasm_bindgen]
+extern "C" {
+    /// The page's or Node's monotonic clock, for stage timings.
+    #[wasm_bindgen(js_namespace = performance, js_name = now)]
+    fn performance_now() -> f64;
+}
+
+/// The last panic's message: the trap that follows a panic carries none, so
+/// the JS side asks for it afterwards to explain why the module stopped.
+static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
+
+/// Installs the clock and the panic hook once, from every entry point that
+/// starts work: a `#[wasm_bindgen(start)]` function is not run by every
+/// host (wasm-bindgen-test skips it), and without the clock every timing
+/// would read 0.
+fn ensure_started() {
+    static STARTED: Once = Once::new();
+    STARTED.call_once(|| {
+        set_clock(performance_now);
+        std::panic::set_hook(Box::new(|info| {
+            if let Ok(mut last) = LAST_PANIC.lock() {
+                *last = Some(info.to_string());
+            }
+        }));
+    });
+}
+
+/// The message of the panic that trapped the module, if one did.
+#[wasm_bindgen(js_name = lastPanicMessage)]
+pub fn last_panic_message() -> Option<String> {
+    LAST_PANIC.lock().ok().and_then(|last| last.clone())
+}
+
+/// Threads rayon runs on: 1 in the plain build, the pool's size once
+/// `initThreadPool` has run in the threaded one.
+#[wasm_bindgen(js_name = threadCount)]
+pub fn thread_count() -> usize {
+    #[cfg(feature = "parallel")]
+    return rayon::current_num_threads();
+    #[cfg(not(feature = "parallel"))]
+    1
+}
+
+/// Runs `tasks` small pieces of work through the same backend as matching
+/// and returns how many distinct threads executed them: the evidence that a
+/// threaded build really runs in parallel (a pool that exists but is never
+/// used would report 1). Pass a few hundred tasks: the backend hands out
+/// chunks of at least 64.
+#[wasm_bindgen(js_name = threadsUsed)]
+pub fn threads_used(tasks: u32) -> usize {
+    let ran_on = crate::exec::Backend::Parallel.map(tasks as usize, |i| {
+        // Enough work per task that one thread cannot drain the queue
+        // before the others wake up.
+        let mut x = i as u64 | 1;
+        for _ in 0..50_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+        }
+        std::hint::black_box(x);
+        current_thread_index()
+    });
+    let mut threads = ran_on;
+    threads.sort_unstable();
+    threads.dedup();
+    threads.len()
+}
+
+fn current_thread_index() -> usize {
+    #[cfg(feature = "parallel")]
+    return rayon::current_thread_index().unwrap_or(usize::MAX);
+    #[cfg(not(feature = "parallel"))]
+    usize::MAX
+}
+
+/// Bytes of linear memory the module holds now. Memory never shrinks, so
+/// after a search this is its peak.
+#[wasm_bindgen(js_name = memoryBytes)]
+pub fn memory_bytes() -> f64 {
+    (core::arch::wasm32::memory_size(0) as f64) * 65536.0
+}
+
+/// Bytes of linear memory the module may grow to; grids are capped from it.
+#[wasm_bindgen(js_name = memoryLimitBytes)]
+pub fn memory_limit() -> f64 {
+    memory_limit_bytes() as f64
+}
+
+/// A core error as a JS `Error` with the core's message.
+fn js_error(error: Error) -> JsError {
+    JsError::new(&error.to_string())
+}
+
+/// Parses a mesh in the named format (or the one its content shows), with
+/// the time it took for the report's `load`.
+fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), JsError> {
+    ensure_started();
+    let start = now_ms();
+    let format = options::parse_format(format.as_deref())?;
+    let mesh = load(bytes, format).map_err(js_error)?;
+    Ok((mesh, now_ms() - start))
+}
+
+/// A voxelized scene, ready to be searched any number of times.
+#[wasm_bindgen(js_name = Scene)]
+#[derive(Debug)]
+pub struct SceneHandle {
+    scene: Scene,
+    load_ms: f64,
+}
+
+#[wasm_bindgen(js_class = Scene)]
+impl SceneHandle {
+    /// Parses `bytes` (glb/gltf, obj, ply or stl; `format` names it, or it
+    /// is recognized from the content) and voxelizes it at `resolution`
+    /// voxels along the longest side (default 512).
+    #[wasm_bindgen(js_name = fromBytes)]
+    pub fn from_bytes(
+        bytes: &[u8],
+        format: Option<String>,
+        resolution: Option<f64>,
+    ) -> Result<SceneHandle, JsError> {
+        let options = scene_options(resolution)?;
+        let (mesh, load_ms) = parse_mesh(bytes, format)?;
+        let scene = Scene::new(mesh, &options).map_err(js_error)?;
+        Ok(SceneHandle { scene, load_ms })
+    }
+
+    /// Voxels along the scene's longest side.
+    #[wasm_bindgen(getter)]
+    pub fn resolution(&self) -> u32 {
+        self.scene.resolution()
+    }
+
+    /// Edge length of a voxel, in scene units.
+    #[wasm_bindgen(getter, js_name = voxelSize)]
+    pub fn voxel_size(&self) -> f64 {
+        self.scene.voxel_size()
+    }
+
+    /// Candidate points (skin voxels).
+    #[wasm_bindgen(getter, js_name = skinVoxels)]
+    pub fn skin_voxels(&self) -> usize {
+        self.scene.skin().len()
+    }
+
+    /// Triangles of the scene's mesh.
+    #[wasm_bindgen(getter)]
+    pub fn triangles(&self) -> usize {
+        self.scene.mesh().triangles().len()
+    }
+
+    /// Searches the scene for `template`. `options` is a plain object (see
+    /// `options::MatchSettings`); `on_layer` is called after every cascade
+    /// layer with its statistics, and returning `false` or throwing cancels
+    /// the search. A `resolution` other than the scene's voxelizes it again
+    /// (and keeps that grid for the next calls).
+    #[wasm_bindgen(js_name = "match")]
+    pub fn run_match(
+        &mut self,
+        template: &TemplateHandle,
+        options: JsValue,
+        on_layer: Option<Function>,
+    ) -> Result<JsValue, JsError> {
+        ensure_started();
+        let settings = options::MatchSettings::from_js(&options)?;
+        if let Some(resolution) = settings.resolution
+            && resolution != self.scene.resolution()
+        {
+            // On failure (a grid too large) the scene at the old resolution
+            // stays, so the handle remains usable.
+            let options = scene_options(Some(resolution as f64))?;
+            self.scene = Scene::new(self.scene.mesh().clone(), &options).map_err(js_error)?;
+        }
+        let mut progress = Progress {
+            callback: on_layer,
+            failure: None,
+        };
+        let result = search(
+            &self.scene,
+            &template.source,
+            &settings.options,
+            &mut progress,
+        );
+        let mut report = match result {
+            Ok(report) => report,
+            Err(Error::Cancelled) => {
+                return Err(JsError::new(&match progress.failure {
+                    Some(why) => {
+                        format!("{}: the progress callback threw: {why}", Error::Cancelled)
+                    }
+                    None => Error::Cancelled.to_string(),
+                }));
+            }
+            Err(error) => return Err(js_error(error)),
+        };
+        report.timings.load = self.load_ms + template.load_ms;
+        report.timings.sum();
+        report_to_js(&report)
+    }
+}
+
+/// What to look for.
+#[wasm_bindgen(js_name = Template)]
+#[derive(Debug)]
+pub struct TemplateHandle {
+    source: TemplateSource,
+    load_ms: f64,
+}
+
+#[wasm_bindgen(js_class = Template)]
+impl TemplateHandle {
+    /// A separate model from bytes (same formats as a scene).
+    #[wasm_bindgen(js_name = fromBytes)]
+    pub fn from_bytes(bytes: &[u8], format: Option<String>) -> Result<TemplateHandle, JsError> {
+        let (mesh, load_ms) = parse_mesh(bytes, format)?;
+        Ok(TemplateHandle {
+            source: TemplateSource::Model(mesh),
+            load_ms,
+        })
+    }
+
+    /// The part of the scene inside a sphere (scene coordinates).
+    #[wasm_bindgen(js_name = fromSelection)]
+    pub fn from_selection(x: f64, y: f64, z: f64, radius: f64) -> Result<TemplateHandle, JsError> {
+        let center = [x, y, z];
+        if !(center.iter().all(|c| c.is_finite()) && radius.is_finite() && radius > 0.0) {
+            return Err(JsError::new(&format!(
+                "invalid selection: the sphere needs a finite centre and a positive radius, got {center:?} and {radius}"
+            )));
+        }
+        Ok(TemplateHandle {
+            source: TemplateSource::Selection { center, radius },
+            load_ms: 0.0,
+        })
+    }
+
+    /// Whether this is a selection sphere rather than a model.
+    #[wasm_bindgen(getter, js_name = isSelection)]
+    pub fn is_selection(&self) -> bool {
+        matches!(self.source, TemplateSource::Selection { .. })
+    }
+}
+
+/// Forwards layer statistics to a JS callback; `false` or a throw cancels.
+struct Progress {
+    callback: Option<Function>,
+    failure: Option<String>,
+}
+
+impl crate::cascade::Observer for Progress {
+    fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()> {
+        let Some(callback) = &self.callback else {
+            return ControlFlow::Continue(());
+        };
+        match callback.call1(&JsValue::NULL, &layer_to_js(stats)) {
+            Ok(answer) if answer == JsValue::FALSE => ControlFlow::Break(()),
+            Ok(_) => ControlFlow::Continue(()),
+            Err(thrown) => {
+                self.failure = Some(describe_js(&thrown));
+                ControlFlow::Break(())
+            }
+        }
+    }
+}
+
+/// A thrown JS value in words (an Error's message, or its string form).
+fn describe_js(value: &JsValue) -> String {
+    if let Some(error) = value.dyn_ref::<js_sys::Error>() {
+        return String::from(error.message());
+    }
+    value.as_string().unwrap_or_else(|| format!("{value:?}"))
+}
+
+fn set(target: &Object, key: &str, value: &JsValue) {
+    // Setting a data property on a fresh plain object cannot fail.
+    let _ = Reflect::set(target, &JsValue::from_str(key), value);
+}
+
+/// A layer's statistics as a plain object (the CLI JSON's field names).
+fn layer_to_js(stats: &LayerStats) -> JsValue {
+    let object = Object::new();
+    set(&object, "descriptor", &JsValue::from_str(stats.descriptor));
+    set(&object, "layer", &JsValue::from(stats.layer as f64));
+    set(&object, "radius", &JsValue::from(stats.radius));
+    set(
+        &object,
+        "candidates",
+        &JsValue::from(stats.candidates as f64),
+    );
+    set(&object, "survivors", &JsValue::from(stats.survivors as f64));
+    set(&object, "ms", &JsValue::from(stats.ms));
+    object.into()
+}
+
+/// The report as a plain object in the CLI's JSON shape, plus typed arrays
+/// for drawing: `instancePositions` (x, y, z per instance, best first) and
+/// `highlightRadius` (r_k: the ball each instance occupies).
+fn report_to_js(report: &MatchReport) -> Result<JsValue, JsError> {
+    let text = serde_json::to_string(report)
+        .map_err(|e| JsError::new(&format!("cannot encode the report: {e}")))?;
+    let object: Object = js_sys::JSON::parse(&text)
+        .map_err(|e| JsError::new(&format!("cannot decode the report: {}", describe_js(&e))))?
+        .unchecked_into();
+    let positions: Vec<f64> = report.instances.iter().flat_map(|i| i.position).collect();
+    set(
+        &object,
+        "instancePositions",
+        &Float64Array::from(positions.as_slice()).into(),
+    );
+    set(
+        &object,
+        "highlightRadius",
+        &JsValue::from(report.template.radius),
+    );
+    set(&object, "threads", &JsValue::from(thread_count() as f64));
+    Ok(object.into())
+}
