@@ -3,7 +3,8 @@
 #   scripts/evaluate.sh [--report-only] SCENE...
 # Selection scenes (select-*) are searched with their truth.json sphere and
 # scored with --select. Exits non-zero when a scene is not found perfectly,
-# unless --report-only.
+# unless --report-only. FAST_REJECT_MATCH_ARGS adds flags to every search
+# (e.g. "--descriptor curvature").
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 shared=${FAST_REJECT_SHARED:-$here/../shared}
@@ -17,10 +18,10 @@ for name in "$@"; do
   dir=$shared/scenes/$name
   if [[ $name == select-* ]]; then
     sel=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['select']; print(','.join(map(repr, s['center'] + [s['radius']])))" "$dir/truth.json")
-    "$bin" match "$dir/scene.glb" --select="$sel" --json > "$out/$name.json"
+    "$bin" match "$dir/scene.glb" --select="$sel" --json ${FAST_REJECT_MATCH_ARGS:-} > "$out/$name.json"
     flag=--select
   else
-    "$bin" match "$dir/scene.glb" --template "$dir/template.glb" --json > "$out/$name.json"
+    "$bin" match "$dir/scene.glb" --template "$dir/template.glb" --json ${FAST_REJECT_MATCH_ARGS:-} > "$out/$name.json"
     flag=
   fi
   if score=$(python3 "$shared/bench/evaluate.py" "$dir/truth.json" "$out/$name.json" $flag); then

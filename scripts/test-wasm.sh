@@ -49,7 +49,7 @@ bash scripts/build-wasm.sh all
 step "JS API in Node, threaded build in Chromium"
 (cd js && node --test test/api.test.js test/browser.test.js)
 
-step "the fast-reject bin on zoo-bunny and select-cow-head, scored by evaluate.py"
+step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 node pkg/bin/fast-reject.js match "$shared/scenes/zoo-bunny/scene.glb" \
@@ -60,6 +60,11 @@ python3 "$shared/bench/evaluate.py" "$shared/scenes/zoo-bunny/truth.json" "$out/
 select=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['select']; print(','.join(map(repr, s['center'] + [s['radius']])))" "$shared/scenes/select-cow-head/truth.json")
 node pkg/bin/fast-reject.js match "$shared/scenes/select-cow-head/scene.glb" --select="$select" --json > "$out/select-cow-head.json"
 python3 "$shared/bench/evaluate.py" "$shared/scenes/select-cow-head/truth.json" "$out/select-cow-head.json" --select
+
+# The curvature descriptor through the same bin (no voxels: the mesh).
+node pkg/bin/fast-reject.js match "$shared/scenes/twisted-homer/scene.glb" \
+  --template "$shared/scenes/twisted-homer/template.glb" --descriptor curvature --json > "$out/twisted-homer.json"
+python3 "$shared/bench/evaluate.py" "$shared/scenes/twisted-homer/truth.json" "$out/twisted-homer.json"
 
 step "npm pack, imported by a bundler and by tsc"
 bash js/test/package-test.sh

@@ -41,7 +41,7 @@ export interface SceneOptions {
 }
 
 export interface MatchOptions {
-  /** 'volume+harmonics' (default), 'volume', 'harmonics', or any other descriptor the core knows. */
+  /** 'volume+harmonics' (default), 'volume', 'harmonics' or 'curvature' (on the mesh, no voxels). */
   descriptor?: string;
   /** Voxelize the scene again at this resolution (kept for later calls). */
   resolution?: number;
@@ -51,6 +51,8 @@ export interface MatchOptions {
   volumeThreshold?: number;
   /** Harmonics stage threshold (default 0.8). */
   harmonicsThreshold?: number;
+  /** Curvature threshold on the r_k^2-scaled squared differences (default 2.5). */
+  curvatureThreshold?: number;
   /** Least share of the template's surface that must land on the scene (default 0.85). */
   verifyThreshold?: number;
   /** Largest share of a model template's surface other material may hide (default 0.3). */
@@ -74,8 +76,8 @@ export interface Instance {
   position: [number, number, number];
   /** Final descriptor distance. */
   distance: number;
-  /** Share of the placed template's surface that lies on the scene's (0..1). */
-  score: number;
+  /** Share of the placed template's surface that lies on the scene's (0..1); null for curvature, which has no verification. */
+  score: number | null;
   /** Surviving points the instance gathered. */
   support: number;
 }
@@ -85,8 +87,11 @@ export interface MatchReport {
   template: { center: [number, number, number]; radius: number };
   instances: Instance[];
   stages: LayerStats[];
-  grid: { resolution: number; voxel_size: number; skin_voxels: number };
-  timings_ms: { load: number; voxelize: number; template: number; match: number; group: number; total: number };
+  /** The voxel grid (null for curvature). */
+  grid: { resolution: number; voxel_size: number; skin_voxels: number } | null;
+  /** The welded surface (curvature only, else null). */
+  surface: { vertices: number; triangles: number } | null;
+  timings_ms: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };
   /** x, y, z of every instance, best first. */
   instancePositions: Float64Array;
   /** The radius of the ball each instance occupies (r_k). */

@@ -12,11 +12,12 @@ use crate::scene::SceneOptions;
 use crate::search::{DescriptorKind, MatchOptions};
 
 /// The option names `match` accepts (the CLI's flags, in camelCase).
-const MATCH_KEYS: [&str; 8] = [
+const MATCH_KEYS: [&str; 9] = [
     "descriptor",
     "resolution",
     "layers",
     "volumeThreshold",
+    "curvatureThreshold",
     "harmonicsThreshold",
     "verifyThreshold",
     "hiddenSurface",
@@ -115,6 +116,9 @@ impl MatchSettings {
         }
         if let Some(v) = number(object, "harmonicsThreshold")? {
             options.harmonics_threshold = v;
+        }
+        if let Some(v) = number(object, "curvatureThreshold")? {
+            options.curvature_threshold = v;
         }
         if let Some(v) = number(object, "verifyThreshold")? {
             options.verify_threshold = v;

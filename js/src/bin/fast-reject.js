@@ -4,6 +4,7 @@
 //   fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
 //               [--descriptor D] [--resolution N] [--threads N] [--layers K]
 //               [--volume-threshold T] [--harmonics-threshold T]
+//               [--curvature-threshold T]
 //               [--verify-threshold T] [--hidden-surface T] [--json]
 //   fast-reject demo [--json]     the demo scene and template shipped in demo/
 import { readFile } from 'node:fs/promises';
@@ -14,10 +15,10 @@ import { parseArgs } from 'node:util';
 import { Scene, Template, init, memoryBytes } from '../index.js';
 
 const USAGE = `usage: fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
-                   [--descriptor volume+harmonics|volume|harmonics] [--resolution N]
+                   [--descriptor volume+harmonics|volume|harmonics|curvature] [--resolution N]
                    [--threads N] [--layers K] [--volume-threshold T]
-                   [--harmonics-threshold T] [--verify-threshold T]
-                   [--hidden-surface T] [--json]
+                   [--harmonics-threshold T] [--curvature-threshold T]
+                   [--verify-threshold T] [--hidden-surface T] [--json]
        fast-reject demo [--json]`;
 
 /** Numeric flags and the match option each one sets. */
@@ -25,6 +26,7 @@ const NUMERIC_FLAGS = {
   layers: 'layers',
   'volume-threshold': 'volumeThreshold',
   'harmonics-threshold': 'harmonicsThreshold',
+  'curvature-threshold': 'curvatureThreshold',
   'verify-threshold': 'verifyThreshold',
   'hidden-surface': 'hiddenSurface',
 };
@@ -120,7 +122,9 @@ function printTable(report, build) {
   const lines = [
     `build: wasm ${build}, ${report.threads} thread(s)`,
     `template: centre (${t.center.map((v) => v.toFixed(4)).join(', ')}), radius ${t.radius.toFixed(4)}`,
-    `grid: ${report.grid.resolution} voxels on the longest side, voxel ${report.grid.voxel_size.toFixed(5)}, ${report.grid.skin_voxels} candidate points`,
+    report.grid
+      ? `grid: ${report.grid.resolution} voxels on the longest side, voxel ${report.grid.voxel_size.toFixed(5)}, ${report.grid.skin_voxels} candidate points`
+      : `surface: ${report.surface.vertices} welded vertices (the candidate points), ${report.surface.triangles} triangles`,
     '',
   ];
   for (const s of report.stages) {
@@ -131,12 +135,12 @@ function printTable(report, build) {
   lines.push('', `${report.instances.length} instance(s):`);
   report.instances.forEach((inst, i) => {
     const p = inst.position.map((v) => v.toFixed(4)).join(', ');
-    lines.push(`  #${i + 1} at (${p})  distance ${inst.distance.toFixed(4)}  agreement ${inst.score.toFixed(3)}  support ${inst.support}`);
+    lines.push(`  #${i + 1} at (${p})  distance ${inst.distance.toFixed(4)}${inst.score === null ? '' : `  agreement ${inst.score.toFixed(3)}`}  support ${inst.support}`);
   });
   const tm = report.timings_ms;
   lines.push(
     '',
-    `time (ms): load ${tm.load.toFixed(1)}, voxelize ${tm.voxelize.toFixed(1)}, template ${tm.template.toFixed(1)}, match ${tm.match.toFixed(1)}, group ${tm.group.toFixed(1)}, total ${tm.total.toFixed(1)}`,
+    `time (ms): load ${tm.load.toFixed(1)}, voxelize/weld ${(tm.voxelize + tm.surface).toFixed(1)}, template ${tm.template.toFixed(1)}, match ${tm.match.toFixed(1)}, group ${tm.group.toFixed(1)}, total ${tm.total.toFixed(1)}`,
     `peak wasm memory: ${(memoryBytes() / 2 ** 20).toFixed(0)} MiB`,
   );
   console.log(lines.join('\n'));
