@@ -79,6 +79,9 @@ fi
 # The JavaScript test tooling (playwright-core drives the system Chromium).
 if [[ ! -d js/node_modules ]] || [[ js/package-lock.json -nt js/node_modules/.package-lock.json ]]; then
   log "npm ci in js/"
-  (cd js && npm ci --no-audit --no-fund)
+  # npm 11 on this machine writes locks without the other platforms'
+  # optional packages (rollup's) and then refuses them in `npm ci`; an
+  # install from the same lock resolves the same versions.
+  (cd js && { npm ci --no-audit --no-fund || npm install --no-audit --no-fund; })
 fi
 log "done"
