@@ -22,3 +22,14 @@ pub mod voxel;
 pub mod wasm;
 
 pub use error::{Error, Format, Result};
+
+/// A file of the shared test data: `$FAST_REJECT_SHARED/rel` when that is
+/// set (sandboxes such as wasmtime that cannot see `../shared` by its
+/// path), else `../shared/rel` beside the crate.
+#[cfg(test)]
+pub(crate) fn shared_path(rel: &str) -> String {
+    match std::env::var("FAST_REJECT_SHARED") {
+        Ok(root) => format!("{root}/{rel}"),
+        Err(_) => format!("{}/../shared/{rel}", env!("CARGO_MANIFEST_DIR")),
+    }
+}

@@ -526,7 +526,7 @@ mod tests {
     #[test]
     fn coarse_levels_agree_with_exact_counts() {
         // A real, irregular model, at the radii the pipeline uses.
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models/cow.obj");
+        let path = &crate::shared_path("models/cow.obj");
         let Ok(bytes) = std::fs::read(path) else {
             return;
         };

@@ -165,10 +165,7 @@ fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
 
 #[test]
 fn the_open_bunny_fills_like_its_winding_number() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/models/stanford-bunny.obj"
-    );
+    let path = crate::shared_path("models/stanford-bunny.obj");
     let Ok(bytes) = std::fs::read(path) else {
         return;
     };

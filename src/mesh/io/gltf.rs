@@ -627,7 +627,7 @@ mod tests {
     }
 
     fn scene_bytes(name: &str) -> Option<Vec<u8>> {
-        let p = format!("{}/../shared/scenes/{name}", env!("CARGO_MANIFEST_DIR"));
+        let p = crate::shared_path(&format!("scenes/{name}"));
         std::fs::read(p).ok()
     }
 

@@ -330,7 +330,7 @@ mod tests {
 
     #[test]
     fn real_file_cow() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models/cow.obj");
+        let path = &crate::shared_path("models/cow.obj");
         let Ok(bytes) = std::fs::read(path) else {
             return;
         };

@@ -1177,7 +1177,7 @@ mod tests {
 
     #[test]
     fn real_file_horse() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models/horse.ply");
+        let path = &crate::shared_path("models/horse.ply");
         let Ok(bytes) = std::fs::read(path) else {
             return;
         };

@@ -447,7 +447,7 @@ mod tests {
 
     #[test]
     fn real_file_cow_round_trip() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models/cow.obj");
+        let path = &crate::shared_path("models/cow.obj");
         let Ok(bytes) = std::fs::read(path) else {
             return;
         };
