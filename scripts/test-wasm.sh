@@ -15,9 +15,10 @@ shared=${FAST_REJECT_SHARED:-$here/../shared}
 step() { printf '\n== test-wasm: %s\n' "$*"; }
 
 step "core tests (unit, errors, the shared scenes, serial = parallel) on wasm32-wasip1 under wasmtime"
-# The sandbox sees the shared data as /shared (it does not follow a
-# symlinked ../shared out of an opened folder, nor "..").
-runner="$WASMTIME run --dir $(readlink -f "$shared")::/shared --env FAST_REJECT_SHARED=/shared"
+# The sandbox opens the repository (the demo assets) and sees the shared
+# data as /shared: it follows neither a symlinked ../shared out of an
+# opened folder nor ".." in a path.
+runner="$WASMTIME run --dir $here::$here --dir $(readlink -f "$shared")::/shared --env FAST_REJECT_SHARED=/shared"
 CARGO_TARGET_DIR=target-wasip1 \
   CARGO_TARGET_WASM32_WASIP1_RUNNER="$runner" \
   cargo test --release --target wasm32-wasip1 --no-default-features --features parallel \
