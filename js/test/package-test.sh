@@ -45,7 +45,10 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   const report = scene.match(template, { descriptor: 'volume', verifyThreshold: 0.9 }, (s: LayerStats) => s.survivors > 0);
   const xyz: Float64Array = report.instancePositions;
   const first: number = report.instances[0]?.position[0] ?? xyz[0];
-  console.log(first, report.timings_ms.match, report.grid.voxel_size);
+  // A curvature search has no grid, a voxel one no surface.
+  const candidates: number = report.grid?.skin_voxels ?? report.surface?.vertices ?? 0;
+  const agreement: number | null = report.instances[0]?.score ?? null;
+  console.log(first, report.timings_ms.match, candidates, agreement);
   scene.free();
   template.free();
   // @ts-expect-error: a resolution is a number
