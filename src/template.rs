@@ -59,12 +59,7 @@ impl Template {
         backend: Backend,
         max_grid_bytes: u64,
     ) -> Result<Template> {
-        if layers == 0 {
-            return Err(Error::invalid_option(
-                "layers",
-                "at least one layer is needed",
-            ));
-        }
+        check_layers(layers)?;
         let voxel_size = scene.voxel_size();
         let (center, radius, own_solid, voxel) = match source {
             TemplateSource::Model(mesh) => {
@@ -93,19 +88,10 @@ impl Template {
                 (center, radius, Some(Solid::new(grid)), voxel)
             }
             &TemplateSource::Selection { center, radius } => {
-                let c = check_selection(center, radius)?;
-                let nearest = scene.mesh().closest_point(c);
-                let distance = nearest.distance2.sqrt();
-                if distance > radius {
-                    return Err(Error::SelectionMissesScene {
-                        center,
-                        radius,
-                        distance,
-                    });
-                }
-                let voxel = nearest_voxel(scene.grid().spec(), scene.skin(), nearest.point)
+                let snapped = snap_selection(scene, center, radius)?;
+                let voxel = nearest_voxel(scene.grid().spec(), scene.skin(), snapped)
                     .expect("a scene has skin");
-                (nearest.point, radius, None, voxel)
+                (snapped, radius, None, voxel)
             }
         };
         let first = radius / layers as f64;
@@ -118,9 +104,7 @@ impl Template {
         Ok(Template {
             center,
             radius,
-            radii: (1..=layers)
-                .map(|i| radius * i as f64 / layers as f64)
-                .collect(),
+            radii: evenly_spaced(radius, layers),
             own_solid,
             voxel,
         })
@@ -172,12 +156,7 @@ impl SurfaceTemplate {
     /// c_T is the template's (or for a selection, the scene's) mesh vertex
     /// nearest to the surface point the voxel templates use.
     pub fn new(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<SurfaceTemplate> {
-        if layers == 0 {
-            return Err(Error::invalid_option(
-                "layers",
-                "at least one layer is needed",
-            ));
-        }
+        check_layers(layers)?;
         let (own_surface, target, radius) = match source {
             TemplateSource::Model(mesh) => {
                 let surface = Surface::new(mesh);
@@ -189,17 +168,7 @@ impl SurfaceTemplate {
                 (Some(surface), mesh.closest_point(sphere.center).point, None)
             }
             &TemplateSource::Selection { center, radius } => {
-                let c = check_selection(center, radius)?;
-                let nearest = scene.mesh().closest_point(c);
-                let distance = nearest.distance2.sqrt();
-                if distance > radius {
-                    return Err(Error::SelectionMissesScene {
-                        center,
-                        radius,
-                        distance,
-                    });
-                }
-                (None, nearest.point, Some(radius))
+                (None, snap_selection(scene, center, radius)?, Some(radius))
             }
         };
         let surface = own_surface.as_ref().unwrap_or(scene.surface());
@@ -217,9 +186,7 @@ impl SurfaceTemplate {
             vertex,
             center,
             radius,
-            radii: (1..=layers)
-                .map(|i| radius * i as f64 / layers as f64)
-                .collect(),
+            radii: evenly_spaced(radius, layers),
             own_surface,
         })
     }
@@ -251,18 +218,44 @@ impl SurfaceTemplate {
     }
 }
 
-/// The selection sphere's centre, if the sphere is usable.
-fn check_selection(center: [f64; 3], radius: f64) -> Result<Vec3> {
+/// r_i = r_k i / k for i = 1..=k.
+fn evenly_spaced(radius: f64, layers: usize) -> Vec<f64> {
+    (1..=layers)
+        .map(|i| radius * i as f64 / layers as f64)
+        .collect()
+}
+
+fn check_layers(layers: usize) -> Result<()> {
+    if layers == 0 {
+        return Err(Error::invalid_option(
+            "layers",
+            "at least one layer is needed",
+        ));
+    }
+    Ok(())
+}
+
+/// The selection sphere's centre snapped to the nearest point of the
+/// scene's mesh; an error if the sphere is unusable or touches no surface.
+fn snap_selection(scene: &Scene, center: [f64; 3], radius: f64) -> Result<Vec3> {
     let c = Vec3::new(center[0], center[1], center[2]);
     let finite = c.x.is_finite() && c.y.is_finite() && c.z.is_finite();
-    if finite && radius.is_finite() && radius > 0.0 {
-        Ok(c)
-    } else {
-        Err(Error::invalid_option(
+    if !(finite && radius.is_finite() && radius > 0.0) {
+        return Err(Error::invalid_option(
             "select",
             format!(
                 "the sphere needs a finite centre and a positive radius, got {center:?} and {radius}"
             ),
-        ))
+        ));
     }
+    let nearest = scene.mesh().closest_point(c);
+    let distance = nearest.distance2.sqrt();
+    if distance > radius {
+        return Err(Error::SelectionMissesScene {
+            center,
+            radius,
+            distance,
+        });
+    }
+    Ok(nearest.point)
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{run_with, score, truth};
+use common::run_with;
 use fast_reject::exec::Backend;
 use fast_reject::search::{DescriptorKind, MatchOptions};
 
@@ -16,13 +16,7 @@ fn curvature() -> MatchOptions {
 
 fn assert_finds_everything(name: &str, select: bool) {
     let report = run_with(name, select, &curvature());
-    let s = score(&truth(name), &report, select);
-    assert_eq!(
-        (s.tp, s.fp),
-        (s.targets, 0),
-        "{name}: {s:?}; instances reported: {:#?}",
-        report.instances
-    );
+    common::assert_finds_everything(name, select, &report);
     assert!(report.grid.is_none(), "a curvature search needs no voxels");
     let stages: Vec<&str> = report.stages.iter().map(|s| s.descriptor).collect();
     assert_eq!(stages, vec!["curvature"; 6]);

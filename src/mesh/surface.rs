@@ -449,11 +449,6 @@ impl Surface {
         self.positions[v as usize]
     }
 
-    /// The welded positions.
-    pub fn positions(&self) -> &[Vec3] {
-        &self.positions
-    }
-
     /// The triangles, as welded vertex ids.
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles

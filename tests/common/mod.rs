@@ -156,3 +156,15 @@ pub fn score(truth: &serde_json::Value, report: &MatchReport, select: bool) -> S
         targets: targets.len(),
     }
 }
+
+/// Asserts that `report` found every instance of scene `name` and nothing
+/// else, as evaluate.py would.
+pub fn assert_finds_everything(name: &str, select: bool, report: &MatchReport) {
+    let s = score(&truth(name), report, select);
+    assert_eq!(
+        (s.tp, s.fp),
+        (s.targets, 0),
+        "{name}: {s:?}; instances reported: {:#?}",
+        report.instances
+    );
+}
