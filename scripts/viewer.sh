@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The README's main command: installs what the viewer needs (idempotent),
+# builds pkg/ (both WebAssembly builds) when the sources changed since the
+# last build, and serves www/ on 127.0.0.1 with the COOP/COEP headers that
+# let it run threaded. It prints the address; the page opens on the
+# embedded demo and searches it at once.
+#   bash scripts/viewer.sh [--port N] [--no-isolation]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-tools.sh --viewer
+source scripts/wasm-env.sh
+stamp=pkg/package.json
+if [[ ! -f $stamp ]] || [[ -n $(find src js/src js/package.pkg.json assets/demo Cargo.toml Cargo.lock -newer "$stamp" -print -quit) ]]; then
+  bash scripts/build-wasm.sh all
+fi
+exec node www/server.js "$@"

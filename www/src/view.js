@@ -1,0 +1,382 @@
+// The 3D view: three.js rendering of the scene in one clay material whose
+// shader colours the surface inside each match's ball (the matched region,
+// not a marker), the selection sphere, picking, framing and flights.
+// It renders on demand, not every frame.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
+import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
+import { STLLoader } from 'three/addons/loaders/STLLoader.js';
+
+/** Matches the shader can colour at once (a texture row of balls). */
+export const MAX_HIGHLIGHTS = 2048;
+
+const CLAY = 0xc8c2b8;
+const MATCH = new THREE.Color(0xff8a1f);
+const FOCUS = new THREE.Color(0xffe14d);
+
+/** Parses mesh bytes into a three.js object in file coordinates (as the package reads them). */
+export async function parseModel({ name, format, bytes }) {
+  const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
+  let object;
+  try {
+    if (format === 'glb' || format === 'gltf') {
+      const data = format === 'gltf' ? withoutMaterials(bytes) : buffer;
+      object = (await new GLTFLoader().parseAsync(data, '')).scene;
+    } else if (format === 'obj') {
+      object = new OBJLoader().parse(new TextDecoder().decode(bytes));
+    } else if (format === 'ply') {
+      object = new THREE.Mesh(new PLYLoader().parse(buffer));
+    } else if (format === 'stl') {
+      object = new THREE.Mesh(new STLLoader().parse(buffer));
+    } else {
+      throw new Error(`unknown format ${format}`);
+    }
+  } catch (error) {
+    throw new Error(`${name} could not be read as ${format.toUpperCase()}: ${error?.message ?? error}`);
+  }
+  let triangles = 0;
+  object.traverse((node) => {
+    if (node.isMesh && node.geometry?.attributes?.position) {
+      const geometry = node.geometry;
+      if (!geometry.attributes.normal) geometry.computeVertexNormals();
+      triangles += (geometry.index ? geometry.index.count : geometry.attributes.position.count) / 3;
+    }
+  });
+  if (triangles === 0) throw new Error(`${name} holds no triangles to show.`);
+  object.name = name;
+  return object;
+}
+
+/** A .gltf's JSON without materials and images: the view draws its own, and missing textures must not fail the load. */
+function withoutMaterials(bytes) {
+  const json = JSON.parse(new TextDecoder().decode(bytes));
+  delete json.materials;
+  delete json.textures;
+  delete json.images;
+  delete json.samplers;
+  for (const mesh of json.meshes ?? []) for (const primitive of mesh.primitives ?? []) delete primitive.material;
+  return JSON.stringify(json);
+}
+
+export class View {
+  #renderer;
+  #camera;
+  #controls;
+  #scene = new THREE.Scene();
+  #root = null;
+  #material;
+  #highlights;
+  #selection;
+  #sceneRadius = 1;
+  #frameRequested = false;
+  #flight = null;
+  #pointerDown = null;
+
+  /** `onPick(point)` gets the surface point under a click (not a drag). */
+  constructor(container, { onPick = () => {}, onWheelRadius = () => {} } = {}) {
+    const renderer = new THREE.WebGLRenderer({ antialias: true });
+    renderer.setPixelRatio(Math.min(globalThis.devicePixelRatio ?? 1, 2));
+    renderer.toneMapping = THREE.NeutralToneMapping;
+    container.append(renderer.domElement);
+    this.#renderer = renderer;
+
+    this.#scene.background = new THREE.Color(0x20242b);
+    const pmrem = new THREE.PMREMGenerator(renderer);
+    this.#scene.environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
+    this.#scene.environmentIntensity = 0.7;
+    pmrem.dispose();
+
+    this.#camera = new THREE.PerspectiveCamera(40, 1, 0.01, 100);
+    const headlight = new THREE.DirectionalLight(0xffffff, 1.6);
+    headlight.position.set(0.4, 0.8, 1);
+    this.#camera.add(headlight);
+    this.#scene.add(this.#camera);
+
+    this.#controls = new OrbitControls(this.#camera, renderer.domElement);
+    this.#controls.enableDamping = true;
+    this.#controls.addEventListener('change', () => this.requestRender());
+
+    this.#highlights = highlightTexture();
+    this.#material = clayMaterial(this.#highlights);
+    this.#selection = selectionSphere();
+    this.#selection.visible = false;
+    this.#scene.add(this.#selection);
+
+    const canvas = renderer.domElement;
+    canvas.addEventListener('pointerdown', (event) => {
+      this.#pointerDown = event.button === 0 ? { x: event.clientX, y: event.clientY } : null;
+    });
+    canvas.addEventListener('pointerup', (event) => {
+      const down = this.#pointerDown;
+      this.#pointerDown = null;
+      if (!down || Math.hypot(event.clientX - down.x, event.clientY - down.y) > 4) return;
+      const point = this.pick(event.clientX, event.clientY);
+      if (point) onPick(point);
+    });
+    // Shift + wheel sizes the selection sphere; the plain wheel zooms. This
+    // listener runs before OrbitControls' and keeps the event from it.
+    canvas.addEventListener(
+      'wheel',
+      (event) => {
+        if (!event.shiftKey) return;
+        event.preventDefault();
+        event.stopImmediatePropagation();
+        const delta = event.deltaY || event.deltaX;
+        onWheelRadius(Math.exp(-Math.sign(delta) * 0.08));
+      },
+      { capture: true, passive: false },
+    );
+    new ResizeObserver(() => this.#resize(container)).observe(container);
+    this.#resize(container);
+  }
+
+  /** The scene's bounding radius (for sensible slider ranges). */
+  get sceneRadius() {
+    return this.#sceneRadius;
+  }
+
+  /** Shows `object` instead of the current scene and frames it. */
+  setModel(object) {
+    if (this.#root) {
+      this.#scene.remove(this.#root);
+      this.#root.traverse((node) => node.geometry?.dispose());
+    }
+    object.traverse((node) => {
+      if (node.isMesh) node.material = this.#material;
+      else if (node.isPoints || node.isLine) node.visible = false;
+    });
+    this.#root = object;
+    this.#scene.add(object);
+    this.setMatches(new Float64Array(), 0);
+    this.setSelection(null);
+    this.frame();
+  }
+
+  /** Puts the whole scene in view: the box's corners fit both fields of view. */
+  frame() {
+    if (!this.#root) return;
+    const box = new THREE.Box3().setFromObject(this.#root);
+    const sphere = box.getBoundingSphere(new THREE.Sphere());
+    const radius = Math.max(sphere.radius, 1e-6);
+    this.#sceneRadius = radius;
+    const back = new THREE.Vector3(0.55, 0.6, 1).normalize();
+    const right = new THREE.Vector3(0, 1, 0).cross(back).normalize();
+    const up = back.clone().cross(right);
+    const tanV = Math.tan(THREE.MathUtils.degToRad(this.#camera.fov / 2));
+    const tanH = tanV * this.#camera.aspect;
+    let distance = 0;
+    for (let i = 0; i < 8; i += 1) {
+      const corner = new THREE.Vector3(
+        i & 1 ? box.max.x : box.min.x,
+        i & 2 ? box.max.y : box.min.y,
+        i & 4 ? box.max.z : box.min.z,
+      ).sub(sphere.center);
+      const depth = corner.dot(back);
+      distance = Math.max(distance, depth + Math.abs(corner.dot(right)) / tanH, depth + Math.abs(corner.dot(up)) / tanV);
+    }
+    distance *= 1.08;
+    this.#camera.position.copy(sphere.center).addScaledVector(back, distance);
+    this.#camera.near = radius * 0.002;
+    this.#camera.far = distance + radius * 20;
+    this.#camera.updateProjectionMatrix();
+    this.#controls.target.copy(sphere.center);
+    this.#controls.maxDistance = distance * 8;
+    this.#controls.update();
+    this.requestRender();
+  }
+
+  /** Colours the ball of `radius` around every `positions` triple; `focus` picks one out. */
+  setMatches(positions, radius, focus = -1) {
+    const count = Math.min(positions.length / 3, MAX_HIGHLIGHTS);
+    const data = this.#highlights.image.data;
+    for (let i = 0; i < count; i += 1) {
+      data.set([positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], radius], 4 * i);
+    }
+    this.#highlights.needsUpdate = true;
+    const uniforms = this.#material.userData.uniforms;
+    uniforms.matchCount.value = count;
+    uniforms.focusIndex.value = focus;
+    this.requestRender();
+    return count;
+  }
+
+  /** How many matches are coloured now. */
+  get highlighted() {
+    return this.#material.userData.uniforms.matchCount.value;
+  }
+
+  /** Shows the selection sphere, or hides it for null. */
+  setSelection(selection) {
+    this.#selection.visible = !!selection;
+    if (selection) {
+      this.#selection.position.fromArray(selection.center);
+      this.#selection.scale.setScalar(selection.radius);
+    }
+    this.requestRender();
+  }
+
+  /** The surface point under a client position, as [x, y, z], or null. */
+  pick(clientX, clientY) {
+    if (!this.#root) return null;
+    const rect = this.#renderer.domElement.getBoundingClientRect();
+    const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
+    const raycaster = new THREE.Raycaster();
+    raycaster.setFromCamera(ndc, this.#camera);
+    const hit = raycaster.intersectObject(this.#root, true).find((h) => h.object.visible);
+    return hit ? hit.point.toArray() : null;
+  }
+
+  /** Client coordinates of a scene point (tests click through this). */
+  project(point) {
+    const rect = this.#renderer.domElement.getBoundingClientRect();
+    const v = new THREE.Vector3().fromArray(point).project(this.#camera);
+    return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
+  }
+
+  /** Flies the camera to look at `point` from `distance`, keeping the direction of view. */
+  flyTo(point, distance) {
+    const target = new THREE.Vector3().fromArray(point);
+    const direction = this.#camera.position.clone().sub(this.#controls.target).normalize();
+    this.#flight = {
+      start: performance.now(),
+      fromTarget: this.#controls.target.clone(),
+      fromPosition: this.#camera.position.clone(),
+      toTarget: target,
+      toPosition: target.clone().addScaledVector(direction, distance),
+    };
+    this.requestRender();
+  }
+
+  requestRender() {
+    if (this.#frameRequested) return;
+    this.#frameRequested = true;
+    requestAnimationFrame(() => this.#render());
+  }
+
+  #render() {
+    this.#frameRequested = false;
+    let moving = false;
+    if (this.#flight) {
+      const f = this.#flight;
+      const t = Math.min((performance.now() - f.start) / 700, 1);
+      const s = t * t * (3 - 2 * t);
+      this.#controls.target.lerpVectors(f.fromTarget, f.toTarget, s);
+      this.#camera.position.lerpVectors(f.fromPosition, f.toPosition, s);
+      if (t >= 1) this.#flight = null;
+      moving = true;
+    }
+    // With damping, update() reports motion until the orbit settles.
+    if (this.#controls.update()) moving = true;
+    this.#renderer.render(this.#scene, this.#camera);
+    if (moving || this.#flight) this.requestRender();
+  }
+
+  #resize(container) {
+    const width = Math.max(container.clientWidth, 1);
+    const height = Math.max(container.clientHeight, 1);
+    this.#renderer.setSize(width, height, false);
+    this.#renderer.domElement.style.width = '100%';
+    this.#renderer.domElement.style.height = '100%';
+    this.#camera.aspect = width / height;
+    this.#camera.updateProjectionMatrix();
+    this.requestRender();
+  }
+}
+
+function highlightTexture() {
+  const texture = new THREE.DataTexture(new Float32Array(4 * MAX_HIGHLIGHTS), MAX_HIGHLIGHTS, 1, THREE.RGBAFormat, THREE.FloatType);
+  texture.magFilter = THREE.NearestFilter;
+  texture.minFilter = THREE.NearestFilter;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/** A matte material whose fragments inside any match ball take the match colour. */
+function clayMaterial(highlights) {
+  const material = new THREE.MeshStandardMaterial({ color: CLAY, roughness: 0.62, metalness: 0, side: THREE.DoubleSide });
+  const uniforms = {
+    matchBalls: { value: highlights },
+    matchCount: { value: 0 },
+    focusIndex: { value: -1 },
+    matchColor: { value: MATCH },
+    focusColor: { value: FOCUS },
+  };
+  material.userData.uniforms = uniforms;
+  material.onBeforeCompile = (shader) => {
+    Object.assign(shader.uniforms, uniforms);
+    shader.vertexShader = shader.vertexShader
+      .replace('#include <common>', '#include <common>\nvarying vec3 vMatchWorld;')
+      .replace(
+        '#include <project_vertex>',
+        `#include <project_vertex>
+        vec4 matchPoint = vec4(transformed, 1.0);
+        #ifdef USE_INSTANCING
+          matchPoint = instanceMatrix * matchPoint;
+        #endif
+        vMatchWorld = (modelMatrix * matchPoint).xyz;`,
+      );
+    shader.fragmentShader = shader.fragmentShader
+      .replace(
+        '#include <common>',
+        `#include <common>
+        varying vec3 vMatchWorld;
+        uniform sampler2D matchBalls;
+        uniform int matchCount;
+        uniform int focusIndex;
+        uniform vec3 matchColor;
+        uniform vec3 focusColor;`,
+      )
+      .replace(
+        '#include <color_fragment>',
+        `#include <color_fragment>
+        float matchWeight = 0.0;
+        float focusWeight = 0.0;
+        float rim = 0.0;
+        for (int i = 0; i < ${MAX_HIGHLIGHTS}; i++) {
+          if (i >= matchCount) break;
+          vec4 ball = texelFetch(matchBalls, ivec2(i, 0), 0);
+          float d = distance(vMatchWorld, ball.xyz);
+          float inside = 1.0 - smoothstep(ball.w * 0.96, ball.w, d);
+          rim = max(rim, inside * smoothstep(ball.w * 0.9, ball.w * 0.96, d));
+          matchWeight = max(matchWeight, inside);
+          if (i == focusIndex) focusWeight = inside;
+        }
+        vec3 tint = mix(matchColor, focusColor, focusWeight);
+        diffuseColor.rgb = mix(diffuseColor.rgb, tint, 0.78 * matchWeight);
+        diffuseColor.rgb *= 1.0 - 0.45 * rim;`,
+      );
+  };
+  return material;
+}
+
+/** A translucent ball with three great circles, so its size reads at any angle. */
+function selectionSphere() {
+  const group = new THREE.Group();
+  const ball = new THREE.Mesh(
+    new THREE.SphereGeometry(1, 48, 24),
+    new THREE.MeshBasicMaterial({ color: 0x46a6ff, transparent: true, opacity: 0.22, depthWrite: false }),
+  );
+  ball.raycast = () => {};
+  group.add(ball);
+  const points = [];
+  for (let i = 0; i <= 96; i += 1) {
+    const a = (i / 96) * Math.PI * 2;
+    points.push(new THREE.Vector3(Math.cos(a), Math.sin(a), 0));
+  }
+  const circle = new THREE.BufferGeometry().setFromPoints(points);
+  const lineMaterial = new THREE.LineBasicMaterial({ color: 0x8cc8ff, transparent: true, opacity: 0.8 });
+  for (const rotation of [
+    [0, 0, 0],
+    [Math.PI / 2, 0, 0],
+    [0, Math.PI / 2, 0],
+  ]) {
+    const line = new THREE.Line(circle, lineMaterial);
+    line.rotation.set(...rotation);
+    line.raycast = () => {};
+    group.add(line);
+  }
+  return group;
+}

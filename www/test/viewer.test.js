@@ -1,0 +1,247 @@
+// End-to-end tests of the viewer: the real page in headless Chromium
+// (playwright-core driving the system Chromium), served by www/server.js
+// once cross-origin isolated (the threaded build) and once not (the plain
+// build). Needs pkg/ (scripts/build-wasm.sh) and ../shared.
+//   cd www && node --test test/
+import assert from 'node:assert/strict';
+import { mkdir, readFile } from 'node:fs/promises';
+import { resolve } from 'node:path';
+import { test } from 'node:test';
+import { fileURLToPath } from 'node:url';
+
+import { chromium } from 'playwright-core';
+
+import { startServer } from '../server.js';
+
+const repo = fileURLToPath(new URL('../../', import.meta.url));
+const shared = process.env.FAST_REJECT_SHARED ?? resolve(repo, '../shared');
+const screenshots = process.env.VIEWER_SCREENSHOTS ?? resolve(repo, 'target/viewer');
+const zooBunny = resolve(shared, 'scenes/zoo-bunny');
+
+const CHROMIUM_FLAGS = [
+  '--no-sandbox',
+  '--disable-dev-shm-usage',
+  '--disable-background-networking',
+  '--disable-component-update',
+  '--disable-sync',
+  '--no-first-run',
+  // WebGL on the CPU: headless Chromium on a machine without a GPU.
+  '--use-angle=swiftshader',
+  '--enable-unsafe-swiftshader',
+];
+
+/** Opens the viewer; the caller must `close()`. */
+async function openViewer({ isolation }) {
+  const { server, origin } = await startServer({ port: 0, isolation });
+  const browser = await chromium.launch({
+    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
+    args: CHROMIUM_FLAGS,
+  });
+  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  const problems = [];
+  page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
+  page.on('console', (message) => {
+    if (message.type() === 'error') problems.push(`console error: ${message.text()}`);
+  });
+  await page.goto(`${origin}/`);
+  return {
+    page,
+    problems,
+    async close() {
+      await browser.close();
+      server.close();
+    },
+  };
+}
+
+/**
+ * Waits until the viewer reports `status`; fails at once with the page's
+ * message when it reports an error or shows a message instead (callers
+ * dismiss old messages first).
+ */
+async function waitForStatus(page, status, timeout = 180_000) {
+  await page.waitForFunction(
+    (wanted) => ['error', wanted].includes(globalThis.viewer?.status) || !!globalThis.viewer?.lastMessage,
+    status,
+    { timeout, polling: 100 },
+  );
+  const { now, message } = await page.evaluate(() => ({ now: globalThis.viewer.status, message: globalThis.viewer.lastMessage }));
+  if (now !== status || message) {
+    assert.fail(`the viewer says '${message}' (status ${now}) while the test waits for '${status}'`);
+  }
+}
+
+function apply(transform, p) {
+  return [0, 1, 2].map((r) => transform[r][0] * p[0] + transform[r][1] * p[1] + transform[r][2] * p[2] + transform[r][3]);
+}
+
+async function truth(dir) {
+  return JSON.parse(await readFile(resolve(dir, 'truth.json'), 'utf8'));
+}
+
+/** Every truth instance found and nothing else, as ../shared/bench/evaluate.py scores it. */
+function assertMatchesTruth(report, truthJson, label) {
+  const tolerance = truthJson.tolerance ?? 0.2;
+  const targets = truthJson.instances.map((t) => apply(t.transform, report.template.center));
+  const positions = report.instances.map((i) => i.position);
+  for (const [j, target] of targets.entries()) {
+    assert.ok(
+      positions.some((p) => Math.hypot(p[0] - target[0], p[1] - target[1], p[2] - target[2]) < tolerance),
+      `${label}: truth instance ${j} not found`,
+    );
+  }
+  for (const p of positions) {
+    assert.ok(
+      targets.some((t) => Math.hypot(p[0] - t[0], p[1] - t[1], p[2] - t[2]) < tolerance),
+      `${label}: false positive at ${p}`,
+    );
+  }
+}
+
+for (const isolation of [true, false]) {
+  const mode = isolation ? 'threads' : 'single-threaded';
+  test(`viewer (${mode}): the demo on load, then a selection sphere on zoo-bunny`, async () => {
+    const viewer = await openViewer({ isolation });
+    const { page } = viewer;
+    try {
+      // The demo is searched on load.
+      await waitForStatus(page, 'done');
+      const build = await page.evaluate(() => globalThis.viewer.build);
+      assert.equal(build.build, isolation ? 'threads' : 'plain');
+      if (isolation) assert.ok(build.threads >= 2, `threads: ${build.threads}`);
+      const badge = await page.locator('#threads-badge').textContent();
+      assert.match(badge, isolation ? /threaded: \d+ threads/ : /single-threaded \(not cross-origin isolated\)/);
+      assert.match(await page.locator('#webgpu-badge').textContent(), /WebGPU: (present|not available)/);
+
+      const demoTruth = await truth(resolve(repo, 'assets/demo'));
+      const demo = await page.evaluate(() => globalThis.viewer.report);
+      assertMatchesTruth(demo, demoTruth, 'demo');
+      assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), demoTruth.instances.length);
+      assert.equal(await page.locator('#instance-list li').count(), demoTruth.instances.length);
+      assert.equal(await page.locator('#layer-table tbody tr').count(), demo.stages.length);
+
+      // A shared scene through the file input.
+      await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+      await waitForStatus(page, 'ready');
+      assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'scene.glb');
+      assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), 0);
+
+      // Click on a bunny to place the selection sphere there: the view is
+      // framed on the scene, so a bunny's centre projects onto its body.
+      const bunnies = (await truth(zooBunny)).instances.map((t) => [t.transform[0][3], t.transform[1][3], t.transform[2][3]]);
+      await page.click('label:has(input[value="selection"])');
+      let picked = null;
+      for (const centre of bunnies) {
+        const { x, y } = await page.evaluate((p) => globalThis.viewer.project(p), centre);
+        await page.mouse.click(x, y);
+        const selection = await page.evaluate(() => globalThis.viewer.selection);
+        if (selection && Math.hypot(...selection.center.map((v, i) => v - centre[i])) < 1) {
+          picked = selection;
+          break;
+        }
+      }
+      assert.ok(picked, 'no click landed on a bunny');
+      await page.evaluate(() => globalThis.viewer.setSelectionRadius(0.6));
+      await page.click('#search-button');
+      await waitForStatus(page, 'done');
+      const report = await page.evaluate(() => globalThis.viewer.report);
+      // Every bunny holds one match, and nothing else does (models have radius 1).
+      for (const [j, centre] of bunnies.entries()) {
+        assert.ok(
+          report.instances.some((i) => Math.hypot(...i.position.map((v, k) => v - centre[k])) < 1),
+          `bunny ${j} was not matched: ${JSON.stringify(report.instances)}`,
+        );
+      }
+      for (const instance of report.instances) {
+        assert.ok(
+          bunnies.some((c) => Math.hypot(...instance.position.map((v, k) => v - c[k])) < 1),
+          `a match off every bunny: ${instance.position}`,
+        );
+      }
+      assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), report.instances.length);
+      await mkdir(screenshots, { recursive: true });
+      await page.screenshot({ path: resolve(screenshots, `viewer-${mode}.png`) });
+      // Flying to a match from the list singles it out.
+      await page.locator('#instance-list li button').nth(1).click();
+      await page.waitForTimeout(900);
+      assert.ok(await page.locator('#instance-list li button').nth(1).evaluate((b) => b.classList.contains('focused')));
+      await page.screenshot({ path: resolve(screenshots, `viewer-${mode}-focus.png`) });
+      assert.deepEqual(viewer.problems, []);
+    } finally {
+      await viewer.close();
+    }
+  });
+}
+
+test('viewer: cancel stops a long search at once and the page stays usable', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    // Curvature on the whole zoo takes tens of seconds.
+    await page.selectOption('#descriptor', 'curvature');
+    await page.setInputFiles('#template-input', resolve(zooBunny, 'template.glb'));
+    await waitForStatus(page, 'searching');
+    const [worker] = page.workers();
+    assert.ok(worker, 'the search runs in a Web Worker');
+    const closed = new Promise((done) => worker.once('close', done));
+    await page.waitForTimeout(1500);
+    assert.equal(await page.evaluate(() => globalThis.viewer.status), 'searching');
+    await page.click('#cancel-button');
+    await waitForStatus(page, 'cancelled', 2000);
+    // The worker that ran the search is gone, not left running.
+    await Promise.race([
+      closed,
+      new Promise((_, fail) => setTimeout(() => fail(new Error('the search worker is still alive after cancel')), 5000)),
+    ]);
+    assert.ok(await page.locator('#cancel-button').isDisabled());
+
+    // The page goes on working: the same scene, the fast descriptor.
+    await page.selectOption('#descriptor', 'volume+harmonics');
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    const report = await page.evaluate(() => globalThis.viewer.report);
+    assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny after a cancel');
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
+
+test('viewer: a broken or unsupported file gives a message and keeps the scene', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    const before = await page.evaluate(() => ({ scene: globalThis.viewer.sceneName, highlighted: globalThis.viewer.highlighted }));
+    const sceneBytes = await readFile(resolve(zooBunny, 'scene.glb'));
+    const cases = [
+      { name: 'broken.glb', mimeType: 'model/gltf-binary', buffer: Buffer.from('glTF this is not a binary glTF file') },
+      { name: 'truncated.glb', mimeType: 'model/gltf-binary', buffer: sceneBytes.subarray(0, sceneBytes.length >> 1) },
+      { name: 'notes.txt', mimeType: 'text/plain', buffer: Buffer.from('hello') },
+      { name: 'empty.stl', mimeType: 'model/stl', buffer: Buffer.alloc(0) },
+      { name: 'garbage.ply', mimeType: 'application/octet-stream', buffer: Buffer.from('ply\nformat nonsense\n') },
+    ];
+    for (const file of cases) {
+      await page.evaluate(() => globalThis.viewer.dismissMessage());
+      await page.setInputFiles('#scene-input', file);
+      await page.locator('#message').waitFor({ state: 'visible', timeout: 30_000 });
+      const message = await page.locator('#message-text').textContent();
+      assert.match(message, new RegExp(file.name.replace('.', '\\.')), `${file.name}: ${message}`);
+      assert.match(message, /unchanged|not a supported|empty/, `${file.name}: ${message}`);
+      const after = await page.evaluate(() => ({ scene: globalThis.viewer.sceneName, highlighted: globalThis.viewer.highlighted }));
+      assert.deepEqual(after, before, `${file.name} changed the scene`);
+      assert.equal(await page.evaluate(() => globalThis.viewer.status), 'done');
+    }
+    // Still usable: the demo searches again.
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), before.highlighted);
+    // Console errors are expected here (three.js logs parse failures); page errors are not.
+    assert.deepEqual(viewer.problems.filter((p) => p.startsWith('page error')), []);
+  } finally {
+    await viewer.close();
+  }
+});
