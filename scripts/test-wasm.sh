@@ -6,7 +6,8 @@
 #     against the native command's result on the same scene;
 #  3. pkg/ (both builds) through its JS API in Node, the threaded build in
 #     cross-origin isolated headless Chromium, the `fast-reject` bin scored
-#     by ../shared/bench/evaluate.py, and `npm pack` imported by a bundler.
+#     by ../shared/bench/evaluate.py, and `npm pack` imported by a bundler;
+#  4. the viewer in www/ driven end to end in headless Chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/wasm-env.sh
@@ -66,6 +67,10 @@ python3 "$shared/bench/evaluate.py" "$shared/scenes/select-cow-head/truth.json" 
 node pkg/bin/fast-reject.js match "$shared/scenes/twisted-homer/scene.glb" \
   --template "$shared/scenes/twisted-homer/template.glb" --descriptor curvature --json > "$out/twisted-homer.json"
 python3 "$shared/bench/evaluate.py" "$shared/scenes/twisted-homer/truth.json" "$out/twisted-homer.json"
+
+step "the viewer (www/) end to end in headless Chromium, threaded and single-threaded"
+# Screenshots land in target/viewer/.
+(cd www && node --test test/)
 
 step "npm pack, imported by a bundler and by tsc"
 bash js/test/package-test.sh

@@ -272,7 +272,10 @@ async function runSearch() {
   dismissMessage();
   $('cancel-button').disabled = false;
   $('progress-bar').value = 0;
-  $('progress-text').textContent = state.build ? 'Searching…' : 'Starting the worker…';
+  $('progress-text').textContent =
+    options.descriptor === 'curvature'
+      ? 'Preparing: welding the surface and describing the template…'
+      : 'Preparing: voxelizing the scene and describing the template…';
   clearResults();
   try {
     const reply = await matcher.match(template, options, (stats) => {

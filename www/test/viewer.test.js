@@ -173,42 +173,46 @@ for (const isolation of [true, false]) {
   });
 }
 
-test('viewer: cancel stops a long search at once and the page stays usable', async () => {
-  const viewer = await openViewer({ isolation: false });
-  const { page } = viewer;
-  try {
-    await waitForStatus(page, 'done');
-    await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
-    await waitForStatus(page, 'ready');
-    // Curvature on the whole zoo takes tens of seconds.
-    await page.selectOption('#descriptor', 'curvature');
-    await page.setInputFiles('#template-input', resolve(zooBunny, 'template.glb'));
-    await waitForStatus(page, 'searching');
-    const [worker] = page.workers();
-    assert.ok(worker, 'the search runs in a Web Worker');
-    const closed = new Promise((done) => worker.once('close', done));
-    await page.waitForTimeout(1500);
-    assert.equal(await page.evaluate(() => globalThis.viewer.status), 'searching');
-    await page.click('#cancel-button');
-    await waitForStatus(page, 'cancelled', 2000);
-    // The worker that ran the search is gone, not left running.
-    await Promise.race([
-      closed,
-      new Promise((_, fail) => setTimeout(() => fail(new Error('the search worker is still alive after cancel')), 5000)),
-    ]);
-    assert.ok(await page.locator('#cancel-button').isDisabled());
+for (const isolation of [false, true]) {
+  const mode = isolation ? 'threads' : 'single-threaded';
+  test(`viewer (${mode}): cancel stops a long search at once and the page stays usable`, async () => {
+    const viewer = await openViewer({ isolation });
+    const { page } = viewer;
+    try {
+      await waitForStatus(page, 'done');
+      await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+      await waitForStatus(page, 'ready');
+      // Curvature on the whole zoo takes tens of seconds.
+      await page.selectOption('#descriptor', 'curvature');
+      await page.setInputFiles('#template-input', resolve(zooBunny, 'template.glb'));
+      await waitForStatus(page, 'searching');
+      await page.waitForTimeout(1500);
+      assert.equal(await page.evaluate(() => globalThis.viewer.status), 'searching');
+      // The search worker, and with threads the pool's workers too.
+      const running = page.workers();
+      assert.ok(running.length >= (isolation ? 3 : 1), `${running.length} workers run the search`);
+      const closed = Promise.all(running.map((worker) => new Promise((done) => worker.once('close', done))));
+      await page.click('#cancel-button');
+      await waitForStatus(page, 'cancelled', 2000);
+      // Every worker that ran the search is gone, not left computing.
+      await Promise.race([
+        closed,
+        new Promise((_, fail) => setTimeout(() => fail(new Error('search workers are still alive after cancel')), 5000)),
+      ]);
+      assert.ok(await page.locator('#cancel-button').isDisabled());
 
-    // The page goes on working: the same scene, the fast descriptor.
-    await page.selectOption('#descriptor', 'volume+harmonics');
-    await page.click('#search-button');
-    await waitForStatus(page, 'done');
-    const report = await page.evaluate(() => globalThis.viewer.report);
-    assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny after a cancel');
-    assert.deepEqual(viewer.problems, []);
-  } finally {
-    await viewer.close();
-  }
-});
+      // The page goes on working: the same scene, the fast descriptor.
+      await page.selectOption('#descriptor', 'volume+harmonics');
+      await page.click('#search-button');
+      await waitForStatus(page, 'done');
+      const report = await page.evaluate(() => globalThis.viewer.report);
+      assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny after a cancel');
+      assert.deepEqual(viewer.problems, []);
+    } finally {
+      await viewer.close();
+    }
+  });
+}
 
 test('viewer: a broken or unsupported file gives a message and keeps the scene', async () => {
   const viewer = await openViewer({ isolation: false });
@@ -241,6 +245,77 @@ test('viewer: a broken or unsupported file gives a message and keeps the scene',
     assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), before.highlighted);
     // Console errors are expected here (three.js logs parse failures); page errors are not.
     assert.deepEqual(viewer.problems.filter((p) => p.startsWith('page error')), []);
+  } finally {
+    await viewer.close();
+  }
+});
+
+/** A .glb split into a .gltf and its .bin, as exporters often write them. */
+function splitGlb(glb, binName) {
+  const jsonLength = glb.readUInt32LE(12);
+  const json = JSON.parse(glb.subarray(20, 20 + jsonLength).toString('utf8'));
+  const binStart = 20 + jsonLength;
+  const bin = glb.subarray(binStart + 8, binStart + 8 + glb.readUInt32LE(binStart));
+  json.buffers[0].uri = binName;
+  return { gltf: Buffer.from(JSON.stringify(json)), bin };
+}
+
+test('viewer: scenes in every format, by the file input and by drag and drop', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    // A .gltf dropped together with its .bin, then searched for the demo mug.
+    const { gltf, bin } = splitGlb(await readFile(resolve(repo, 'assets/demo/scene.glb')), 'demo-scene.bin');
+    const files = [
+      { name: 'demo-scene.gltf', base64: gltf.toString('base64') },
+      { name: 'demo-scene.bin', base64: bin.toString('base64') },
+    ];
+    const dataTransfer = await page.evaluateHandle((files) => {
+      const transfer = new DataTransfer();
+      for (const f of files) {
+        const bytes = Uint8Array.from(atob(f.base64), (c) => c.charCodeAt(0));
+        transfer.items.add(new File([bytes], f.name));
+      }
+      return transfer;
+    }, files);
+    await page.dispatchEvent('#viewport', 'drop', { dataTransfer });
+    await waitForStatus(page, 'ready');
+    assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'demo-scene.gltf');
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    const demoTruth = await truth(resolve(repo, 'assets/demo'));
+    assertMatchesTruth(await page.evaluate(() => globalThis.viewer.report), demoTruth, 'demo as .gltf + .bin');
+
+    // A .gltf without its .bin says what is missing.
+    await page.setInputFiles('#scene-input', { name: 'alone.gltf', mimeType: 'model/gltf+json', buffer: gltf });
+    await page.locator('#message').waitFor({ state: 'visible' });
+    assert.match(await page.locator('#message-text').textContent(), /demo-scene\.bin together with alone\.gltf/);
+    await page.evaluate(() => globalThis.viewer.dismissMessage());
+
+    // OBJ, PLY and STL through the file input.
+    const tetrahedron = [
+      'solid tetrahedron',
+      ...[
+        [[0, 0, 0], [0, 1, 0], [1, 0, 0]],
+        [[0, 0, 0], [1, 0, 0], [0, 0, 1]],
+        [[0, 0, 0], [0, 0, 1], [0, 1, 0]],
+        [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+      ].map((t) => `facet normal 0 0 0\nouter loop\n${t.map((v) => `vertex ${v.join(' ')}`).join('\n')}\nendloop\nendfacet`),
+      'endsolid tetrahedron',
+    ].join('\n');
+    const models = [
+      resolve(shared, 'models/cow.obj'),
+      resolve(shared, 'models/horse.ply'),
+      { name: 'tetrahedron.stl', mimeType: 'model/stl', buffer: Buffer.from(tetrahedron) },
+    ];
+    for (const model of models) {
+      await page.setInputFiles('#scene-input', model);
+      await waitForStatus(page, 'ready');
+      const name = typeof model === 'string' ? model.split('/').pop() : model.name;
+      assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), name);
+    }
+    assert.deepEqual(viewer.problems, []);
   } finally {
     await viewer.close();
   }
