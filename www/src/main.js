@@ -84,19 +84,23 @@ async function showWebGpu() {
 async function openScene(files) {
   let model;
   let object;
-  const previous = state.status;
+  let restore = state.status === 'loading' ? 'ready' : state.status;
   try {
     setStatus('loading');
     model = await readModel(files);
     $('progress-text').textContent = `Reading ${model.name}…`;
     object = await parseModel(model);
-    if (state.running) cancelSearch();
+    if (state.running) {
+      cancelSearch();
+      restore = 'cancelled';
+    }
+    $('progress-text').textContent = `Loading ${model.name} into the matcher…`;
     await matcher.load(model);
   } catch (error) {
     object?.traverse((node) => node.geometry?.dispose());
     showMessage(`Could not open ${model?.name ?? 'the file'}: ${error.message} The current scene is unchanged.`);
     $('progress-text').textContent = '\u00a0';
-    setStatus(previous === 'loading' ? 'ready' : previous);
+    setStatus(restore);
     return false;
   }
   state.generation += 1;
@@ -149,6 +153,10 @@ viewport.addEventListener('dragleave', () => {
   if (dragDepth === 0) $('drop-overlay').hidden = true;
 });
 viewport.addEventListener('dragover', (event) => event.preventDefault());
+// A file dropped beside the view must not make the browser navigate to it
+// (and lose the page).
+window.addEventListener('dragover', (event) => event.preventDefault());
+window.addEventListener('drop', (event) => event.preventDefault());
 viewport.addEventListener('drop', async (event) => {
   event.preventDefault();
   dragDepth = 0;

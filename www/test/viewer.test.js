@@ -120,6 +120,19 @@ for (const isolation of [true, false]) {
       assert.equal(await page.locator('#instance-list li').count(), demoTruth.instances.length);
       assert.equal(await page.locator('#layer-table tbody tr').count(), demo.stages.length);
 
+      // A threshold change re-runs the search: nothing is that close, then the three again.
+      await page.fill('#harmonics-threshold', '0.01');
+      await page.locator('#harmonics-threshold').dispatchEvent('change');
+      await page.waitForFunction(() => globalThis.viewer.status === 'done' && globalThis.viewer.report.instances.length === 0, null, {
+        timeout: 60_000,
+      });
+      assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), 0);
+      await page.fill('#harmonics-threshold', '0.8');
+      await page.locator('#harmonics-threshold').dispatchEvent('change');
+      await page.waitForFunction(() => globalThis.viewer.status === 'done' && globalThis.viewer.report?.instances.length === 3, null, {
+        timeout: 60_000,
+      });
+
       // A shared scene through the file input.
       await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
       await waitForStatus(page, 'ready');
