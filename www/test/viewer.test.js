@@ -81,7 +81,7 @@ async function truth(dir) {
 
 /** Every truth instance found and nothing else, as ../shared/bench/evaluate.py scores it. */
 function assertMatchesTruth(report, truthJson, label) {
-  const tolerance = truthJson.tolerance ?? 0.2;
+  const tolerance = (truthJson.tolerance ?? 0.2) * (truthJson.template_radius ?? 1);
   const targets = truthJson.instances.map((t) => apply(t.transform, report.template.center));
   const positions = report.instances.map((i) => i.position);
   for (const [j, target] of targets.entries()) {
