@@ -32,7 +32,7 @@ use crate::mesh::{TriMesh, weld_vertices};
 /// The voxels whose centre lies inside the mesh's solid (the surface itself
 /// is not included; see [`super::voxelize`]).
 pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
-    let shells = shells(mesh);
+    let shells = shells(mesh, backend);
     let out = AtomicGrid::new(*spec);
     backend.for_each_range(shells.len(), 1, |range| {
         for s in range {
@@ -50,43 +50,48 @@ pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
 /// coincident vertices, must be filled separately and united, never merged
 /// into one parity count. Shells never cross parts (separately placed
 /// meshes are separate objects), and instances of one mesh share its
-/// connectivity, computed once.
-pub(crate) fn shells(mesh: &TriMesh) -> Vec<Vec<u32>> {
-    let mut by_source: Vec<KnownSource> = Vec::new();
+/// connectivity, computed once. Distinct parts are split into shells in
+/// parallel: that was the serial half of filling a scene.
+pub(crate) fn shells(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
+    let parts = mesh.parts();
+    let local_tris: Vec<Vec<[u32; 3]>> = parts
+        .iter()
+        .map(|part| {
+            let first = part.first_triangle as usize;
+            mesh.triangles()[first..first + part.triangle_count as usize]
+                .iter()
+                .map(|t| t.map(|i| i - part.first_vertex))
+                .collect()
+        })
+        .collect();
+    // Each part's computing twin: the first part with the same source and
+    // the same triangles (a degenerate triangle dropped in one instance only
+    // would differ), itself when there is none.
+    let mut twin: Vec<usize> = Vec::with_capacity(parts.len());
+    for i in 0..parts.len() {
+        let found = (0..i).find(|&j| {
+            twin[j] == j && parts[j].source == parts[i].source && local_tris[j] == local_tris[i]
+        });
+        twin.push(found.unwrap_or(i));
+    }
+    let distinct: Vec<usize> = (0..parts.len()).filter(|&i| twin[i] == i).collect();
+    let distinct_shells = backend.map_each(distinct.len(), |k| {
+        let part = &parts[distinct[k]];
+        let vertices = part.first_vertex as usize..(part.first_vertex + part.vertex_count) as usize;
+        part_shells(&mesh.positions()[vertices], &local_tris[distinct[k]])
+    });
     let mut shells = Vec::new();
-    for part in mesh.parts() {
-        let first = part.first_triangle as usize;
-        let tris = &mesh.triangles()[first..first + part.triangle_count as usize];
-        let local_tris: Vec<[u32; 3]> = tris
-            .iter()
-            .map(|t| t.map(|i| i - part.first_vertex))
-            .collect();
-        // An earlier instance of the same mesh with the same triangles (a
-        // degenerate triangle dropped in one instance only would differ).
-        let known = by_source
-            .iter()
-            .find(|(source, seen, _)| *source == part.source && *seen == local_tris);
-        let local_shells = match known {
-            Some((_, _, found)) => found.clone(),
-            None => {
-                let vertices =
-                    part.first_vertex as usize..(part.first_vertex + part.vertex_count) as usize;
-                let found = part_shells(&mesh.positions()[vertices], &local_tris);
-                by_source.push((part.source, local_tris, found.clone()));
-                found
-            }
-        };
+    for (i, part) in parts.iter().enumerate() {
+        let k = distinct.binary_search(&twin[i]).expect("a twin computes");
+        let first = part.first_triangle;
         shells.extend(
-            local_shells
-                .into_iter()
-                .map(|s| s.into_iter().map(|t| t + first as u32).collect()),
+            distinct_shells[k]
+                .iter()
+                .map(|s| s.iter().map(|&t| t + first).collect::<Vec<u32>>()),
         );
     }
     shells
 }
-
-/// A mesh whose shells are known: source id, local triangles, local shells.
-type KnownSource = (u32, Vec<[u32; 3]>, Vec<Vec<u32>>);
 
 /// Shells of one part, as triangle indices within it.
 fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Vec<u32>> {
