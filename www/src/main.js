@@ -107,7 +107,8 @@ async function openScene(files) {
   state.scene = model;
   state.selection = null;
   state.report = null;
-  view.setModel(object);
+  view.setModel(object, upAxisFor(object));
+  showUpAxis();
   $('scene-name').textContent = `${model.name}`;
   dismissMessage();
   clearResults();
@@ -162,6 +163,22 @@ viewport.addEventListener('drop', async (event) => {
   dragDepth = 0;
   $('drop-overlay').hidden = true;
   await openScene([...event.dataTransfer.files]);
+});
+
+/** The chosen up axis, or the view's guess for `object` when it is 'auto'. */
+function upAxisFor(object) {
+  const chosen = $('up-axis').value;
+  return chosen === 'auto' ? view.guessUp(object) : chosen;
+}
+
+function showUpAxis() {
+  $('up-axis-used').textContent = $('up-axis').value === 'auto' ? `(${view.up} up)` : '';
+}
+
+$('up-axis').addEventListener('change', () => {
+  const chosen = $('up-axis').value;
+  view.up = chosen === 'auto' ? view.guessUp() : chosen;
+  showUpAxis();
 });
 
 // ---- template: model or selection sphere ------------------------------------
@@ -350,6 +367,7 @@ for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curv
 
 function clearResults() {
   view.setMatches(new Float64Array(), 0);
+  $('progress-bar').value = 0;
   $('instance-list').replaceChildren();
   $('layer-table').tBodies[0].replaceChildren();
   $('timing-table').tBodies[0].replaceChildren();
@@ -471,6 +489,10 @@ globalThis.viewer = {
   },
   get lastMessage() {
     return state.lastMessage;
+  },
+  /** The vertical axis the view orbits around. */
+  get up() {
+    return view.up;
   },
   /** Matches coloured on the mesh now. */
   get highlighted() {

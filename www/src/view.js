@@ -71,6 +71,8 @@ export class View {
   #highlights;
   #selection;
   #sceneRadius = 1;
+  /** 'y' or 'z': the scene's vertical axis, which orbiting turns around. */
+  #up = 'y';
   #frameRequested = false;
   #flight = null;
   #pointerDown = null;
@@ -95,9 +97,7 @@ export class View {
     this.#camera.add(headlight);
     this.#scene.add(this.#camera);
 
-    this.#controls = new OrbitControls(this.#camera, renderer.domElement);
-    this.#controls.enableDamping = true;
-    this.#controls.addEventListener('change', () => this.requestRender());
+    this.#makeControls();
 
     this.#highlights = highlightTexture();
     this.#material = clayMaterial(this.#highlights);
@@ -133,13 +133,45 @@ export class View {
     this.#resize(container);
   }
 
+  /** OrbitControls read the camera's up vector once, when they are made. */
+  #makeControls() {
+    this.#controls?.dispose();
+    this.#camera.up.set(0, this.#up === 'y' ? 1 : 0, this.#up === 'z' ? 1 : 0);
+    this.#controls = new OrbitControls(this.#camera, this.#renderer.domElement);
+    this.#controls.enableDamping = true;
+    this.#controls.addEventListener('change', () => this.requestRender());
+  }
+
+  /** The vertical axis ('y' or 'z'); the view is framed again. */
+  get up() {
+    return this.#up;
+  }
+
+  set up(axis) {
+    if (axis !== 'y' && axis !== 'z') throw new Error(`up axis must be 'y' or 'z', got ${axis}`);
+    this.#up = axis;
+    this.#makeControls();
+    this.frame();
+  }
+
+  /**
+   * The vertical axis a scene most likely has: glTF says y, but a layout
+   * spread over the xy plane (a scene of objects on a ground, as CAD and
+   * scanning tools write them) is z up.
+   */
+  guessUp(object = this.#root) {
+    if (!object) return 'y';
+    const size = new THREE.Box3().setFromObject(object).getSize(new THREE.Vector3());
+    return size.z < 0.45 * Math.min(size.x, size.y) ? 'z' : 'y';
+  }
+
   /** The scene's bounding radius (for sensible slider ranges). */
   get sceneRadius() {
     return this.#sceneRadius;
   }
 
-  /** Shows `object` instead of the current scene and frames it. */
-  setModel(object) {
+  /** Shows `object` instead of the current scene and frames it (with `up` as its vertical axis). */
+  setModel(object, up = this.#up) {
     if (this.#root) {
       this.#scene.remove(this.#root);
       this.#root.traverse((node) => node.geometry?.dispose());
@@ -152,6 +184,8 @@ export class View {
     this.#scene.add(object);
     this.setMatches(new Float64Array(), 0);
     this.setSelection(null);
+    this.#up = up;
+    this.#makeControls();
     this.frame();
   }
 
@@ -162,8 +196,9 @@ export class View {
     const sphere = box.getBoundingSphere(new THREE.Sphere());
     const radius = Math.max(sphere.radius, 1e-6);
     this.#sceneRadius = radius;
-    const back = new THREE.Vector3(0.55, 0.6, 1).normalize();
-    const right = new THREE.Vector3(0, 1, 0).cross(back).normalize();
+    // Looking down at about 35 degrees, from the front and a little aside.
+    const back = (this.#up === 'y' ? new THREE.Vector3(0.45, 0.75, 1) : new THREE.Vector3(0.45, -1, 0.75)).normalize();
+    const right = this.#camera.up.clone().cross(back).normalize();
     const up = back.clone().cross(right);
     const tanV = Math.tan(THREE.MathUtils.degToRad(this.#camera.fov / 2));
     const tanH = tanV * this.#camera.aspect;

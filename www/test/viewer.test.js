@@ -113,6 +113,8 @@ for (const isolation of [true, false]) {
       assert.match(badge, isolation ? /threaded: \d+ threads/ : /single-threaded \(not cross-origin isolated\)/);
       assert.match(await page.locator('#webgpu-badge').textContent(), /WebGPU: (present|not available)/);
 
+      // The demo lies on the xy plane: the view orbits around z.
+      assert.equal(await page.evaluate(() => globalThis.viewer.up), 'z');
       const demoTruth = await truth(resolve(repo, 'assets/demo'));
       const demo = await page.evaluate(() => globalThis.viewer.report);
       assertMatchesTruth(demo, demoTruth, 'demo');
@@ -300,6 +302,12 @@ test('viewer: scenes in every format, by the file input and by drag and drop', a
     const demoTruth = await truth(resolve(repo, 'assets/demo'));
     assertMatchesTruth(await page.evaluate(() => globalThis.viewer.report), demoTruth, 'demo as .gltf + .bin');
 
+    // The up axis can be chosen by hand.
+    await page.selectOption('#up-axis', 'y');
+    assert.equal(await page.evaluate(() => globalThis.viewer.up), 'y');
+    await page.selectOption('#up-axis', 'auto');
+    assert.equal(await page.evaluate(() => globalThis.viewer.up), 'z');
+
     // A .gltf without its .bin says what is missing.
     await page.setInputFiles('#scene-input', { name: 'alone.gltf', mimeType: 'model/gltf+json', buffer: gltf });
     await page.locator('#message').waitFor({ state: 'visible' });
@@ -327,6 +335,8 @@ test('viewer: scenes in every format, by the file input and by drag and drop', a
       await waitForStatus(page, 'ready');
       const name = typeof model === 'string' ? model.split('/').pop() : model.name;
       assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), name);
+      // A single model stands on y, as OBJ and PLY files usually do.
+      if (name === 'cow.obj') assert.equal(await page.evaluate(() => globalThis.viewer.up), 'y');
     }
     assert.deepEqual(viewer.problems, []);
   } finally {
