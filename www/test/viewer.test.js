@@ -156,7 +156,14 @@ for (const isolation of [true, false]) {
         }
       }
       assert.ok(picked, 'no click landed on a bunny');
+      // Shift + wheel sizes the sphere (and does not zoom).
+      const before = await page.evaluate(() => globalThis.viewer.selection.radius);
+      await page.keyboard.down('Shift');
+      await page.mouse.wheel(0, 120);
+      await page.keyboard.up('Shift');
+      await page.waitForFunction((r) => globalThis.viewer.selection.radius < r, before, { timeout: 5000 });
       await page.evaluate(() => globalThis.viewer.setSelectionRadius(0.6));
+      assert.equal(await page.locator('#radius-value').textContent(), '0.6');
       await page.click('#search-button');
       await waitForStatus(page, 'done');
       const report = await page.evaluate(() => globalThis.viewer.report);
