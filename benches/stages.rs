@@ -67,21 +67,34 @@ fn main() {
         print_scene(name, &best);
         summary.push((name, best));
     }
-    if options.descriptor == DescriptorKind::Curvature {
-        curvature_tables(&summary);
-        return;
+    let curvature = options.descriptor == DescriptorKind::Curvature;
+    stage_table(&summary, curvature);
+    if curvature {
+        per_candidate_table(&summary);
     }
+}
+
+/// One row per scene: candidate points and milliseconds per stage (the
+/// scene's preparation is voxelization, or the weld for curvature).
+fn stage_table(summary: &[(&str, MatchReport)], curvature: bool) {
+    let (points, prepare) = if curvature {
+        ("vertices", "weld")
+    } else {
+        ("skin voxels", "voxelize")
+    };
     println!(
-        "| scene | skin voxels | load | voxelize | template | match | group | total (ms) | instances |"
+        "| scene | {points} | load | {prepare} | template | match | group | total (ms) | instances |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for (name, r) in &summary {
+    for (name, r) in summary {
         let t = &r.timings;
+        let candidates = (r.grid.as_ref().map(|g| g.skin_voxels))
+            .or(r.surface.as_ref().map(|s| s.vertices))
+            .unwrap_or(0);
         println!(
-            "| {name} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
-            r.grid.as_ref().map_or(0, |g| g.skin_voxels),
+            "| {name} | {candidates} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
             t.load,
-            t.voxelize,
+            t.voxelize + t.surface,
             t.template,
             t.match_,
             t.group,
@@ -91,26 +104,8 @@ fn main() {
     }
 }
 
-/// The stage table, then microseconds per candidate for each layer.
-fn curvature_tables(summary: &[(&str, MatchReport)]) {
-    println!(
-        "| scene | vertices | load | weld | template | match | group | total (ms) | instances |"
-    );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for (name, r) in summary {
-        let t = &r.timings;
-        println!(
-            "| {name} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
-            r.surface.as_ref().map_or(0, |s| s.vertices),
-            t.load,
-            t.surface,
-            t.template,
-            t.match_,
-            t.group,
-            t.total,
-            r.instances.len()
-        );
-    }
+/// Microseconds per candidate for each layer: how the cost grows with the radius.
+fn per_candidate_table(summary: &[(&str, MatchReport)]) {
     let layers = summary
         .iter()
         .map(|(_, r)| r.stages.len())

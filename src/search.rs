@@ -169,6 +169,15 @@ pub struct TemplateInfo {
     pub radius: f64,
 }
 
+impl TemplateInfo {
+    fn of(center: Vec3, radius: f64) -> TemplateInfo {
+        TemplateInfo {
+            center: center.to_array(),
+            radius,
+        }
+    }
+}
+
 /// The welded surface as the report shows it (curvature searches).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SurfaceInfo {
@@ -210,6 +219,21 @@ pub struct Timings {
 }
 
 impl Timings {
+    /// A search's stages from the clock marks before the template, the
+    /// cascade and grouping and after grouping; `load` is the caller's.
+    fn of_search(voxelize: f64, surface: f64, [t0, t1, t2, t3]: [f64; 4]) -> Timings {
+        let mut timings = Timings {
+            voxelize,
+            surface,
+            template: t1 - t0,
+            match_: t2 - t1,
+            group: t3 - t2,
+            ..Timings::default()
+        };
+        timings.sum();
+        timings
+    }
+
     /// Recomputes `total` from the parts.
     pub fn sum(&mut self) {
         self.total =
@@ -407,22 +431,9 @@ pub fn search(
         position,
         options.group_radius * template.radius(),
     );
-    let t3 = now_ms();
-    let mut timings = Timings {
-        load: 0.0,
-        voxelize: scene.voxelize_ms(),
-        surface: 0.0,
-        template: t1 - t0,
-        match_: t2 - t1,
-        group: t3 - t2,
-        total: 0.0,
-    };
-    timings.sum();
+    let timings = Timings::of_search(scene.voxelize_ms(), 0.0, [t0, t1, t2, now_ms()]);
     Ok(MatchReport {
-        template: TemplateInfo {
-            center: template.center().to_array(),
-            radius: template.radius(),
-        },
+        template: TemplateInfo::of(template.center(), template.radius()),
         instances,
         stages: stats,
         grid: Some(GridInfo {
@@ -495,20 +506,9 @@ fn search_surface(
     for i in &mut instances {
         i.score = None;
     }
-    let t3 = now_ms();
-    let mut timings = Timings {
-        surface: scene.surface_ms(),
-        template: t1 - t0,
-        match_: t2 - t1,
-        group: t3 - t2,
-        ..Timings::default()
-    };
-    timings.sum();
+    let timings = Timings::of_search(0.0, scene.surface_ms(), [t0, t1, t2, now_ms()]);
     Ok(MatchReport {
-        template: TemplateInfo {
-            center: template.center().to_array(),
-            radius: template.radius(),
-        },
+        template: TemplateInfo::of(template.center(), template.radius()),
         instances,
         stages: stats,
         grid: None,

@@ -18,14 +18,14 @@ import { fileURLToPath } from 'node:url';
 const www = fileURLToPath(new URL('.', import.meta.url));
 const repo = resolve(www, '..');
 
-/** URL prefixes and the folders they serve; the longest prefix wins. */
-const ROOTS = [
-  ['/pkg/', resolve(repo, 'pkg')],
-  ['/vendor/three/', resolve(www, 'node_modules/three')],
-  ['/demo/', resolve(repo, 'assets/demo')],
-  ['/', resolve(www, 'public')],
-  ['/src/', resolve(www, 'src')],
-].sort((a, b) => b[0].length - a[0].length);
+/** The viewer's URL prefixes and the folders they serve. */
+const VIEWER_ROOTS = {
+  '/pkg/': resolve(repo, 'pkg'),
+  '/vendor/three/': resolve(www, 'node_modules/three'),
+  '/demo/': resolve(repo, 'assets/demo'),
+  '/': resolve(www, 'public'),
+  '/src/': resolve(www, 'src'),
+};
 
 const TYPES = {
   '.html': 'text/html; charset=utf-8',
@@ -39,9 +39,9 @@ const TYPES = {
   '.svg': 'image/svg+xml',
 };
 
-/** The file a URL path names, or null when it would leave its root. */
-function fileFor(pathname) {
-  for (const [prefix, root] of ROOTS) {
+/** The file a URL path names under the longest matching prefix, or null when it would leave its root. */
+function fileFor(roots, pathname) {
+  for (const [prefix, root] of roots) {
     if (!pathname.startsWith(prefix)) continue;
     let rest = pathname.slice(prefix.length);
     if (rest === '' || rest.endsWith('/')) rest += 'index.html';
@@ -53,9 +53,12 @@ function fileFor(pathname) {
 
 /**
  * Starts the server; resolves to `{ server, origin }`. `port` 0 picks a free
- * one; a taken port is answered by trying the next few.
+ * one; a taken port is answered by trying the next few. `roots` maps URL
+ * prefixes to folders (the viewer's by default; the package's browser tests
+ * serve their own page and the scenes).
  */
-export async function startServer({ port = 8080, isolation = true } = {}) {
+export async function startServer({ port = 8080, isolation = true, roots = VIEWER_ROOTS } = {}) {
+  const sorted = Object.entries(roots).sort((a, b) => b[0].length - a[0].length);
   const isolationHeaders = isolation
     ? { 'Cross-Origin-Opener-Policy': 'same-origin', 'Cross-Origin-Embedder-Policy': 'require-corp' }
     : {};
@@ -67,7 +70,7 @@ export async function startServer({ port = 8080, isolation = true } = {}) {
       response.writeHead(400).end('bad request');
       return;
     }
-    const file = fileFor(pathname);
+    const file = fileFor(sorted, pathname);
     try {
       if (!file || !(await stat(file)).isFile()) throw new Error('not a file');
       const body = await readFile(file);
@@ -114,14 +117,12 @@ async function main(args) {
     console.error('server: --port needs a number between 0 and 65535');
     process.exit(2);
   }
-  for (const [prefix, root] of ROOTS) {
-    if (prefix === '/pkg/' || prefix === '/vendor/three/') {
-      try {
-        await stat(root);
-      } catch {
-        console.error(`server: ${root} is missing; run bash scripts/viewer.sh (it builds pkg/ and installs three.js)`);
-        process.exit(1);
-      }
+  for (const root of [VIEWER_ROOTS['/pkg/'], VIEWER_ROOTS['/vendor/three/']]) {
+    try {
+      await stat(root);
+    } catch {
+      console.error(`server: ${root} is missing; run bash scripts/viewer.sh (it builds pkg/ and installs three.js)`);
+      process.exit(1);
     }
   }
   const { origin } = await startServer({ port, isolation });

@@ -1,12 +1,13 @@
 // Runs the package in headless Chromium (playwright-core driving the system
-// Chromium) from a local server that sends the COOP/COEP headers a threaded
-// page needs. Used by the browser test and by the benchmark.
-import { readFile } from 'node:fs/promises';
-import { createServer } from 'node:http';
-import { extname, normalize, resolve } from 'node:path';
+// Chromium) from the viewer's server (www/server.js), which sends the
+// COOP/COEP headers a threaded page needs. Used by the browser test, the
+// benchmark and the viewer's end-to-end test (launchChromium).
+import { resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 import { chromium } from 'playwright-core';
+
+import { startServer } from '../../www/server.js';
 
 const repo = fileURLToPath(new URL('../../', import.meta.url));
 /** URL prefixes and the folders they serve. */
@@ -15,13 +16,7 @@ const ROOTS = {
   '/page/': resolve(repo, 'js/test/page'),
   '/scenes/': resolve(repo, '../shared/scenes'),
 };
-const TYPES = {
-  '.html': 'text/html',
-  '.js': 'text/javascript',
-  '.wasm': 'application/wasm',
-  '.glb': 'model/gltf-binary',
-  '.json': 'application/json',
-};
+/** Headless Chromium on a closed network (see ../shared/TOOLCHAIN.md). */
 const CHROMIUM_FLAGS = [
   '--no-sandbox',
   '--disable-dev-shm-usage',
@@ -31,31 +26,12 @@ const CHROMIUM_FLAGS = [
   '--no-first-run',
 ];
 
-/** A static server on 127.0.0.1 (a random port) with cross-origin isolation headers. */
-export async function startServer() {
-  const server = createServer(async (request, response) => {
-    const path = decodeURIComponent(new URL(request.url, 'http://x').pathname);
-    const prefix = Object.keys(ROOTS).find((p) => path.startsWith(p));
-    const file = prefix && normalize(resolve(ROOTS[prefix], '.' + path.slice(prefix.length - 1)));
-    if (!file || !file.startsWith(ROOTS[prefix])) {
-      response.writeHead(404).end();
-      return;
-    }
-    try {
-      const body = await readFile(file);
-      response.writeHead(200, {
-        'Content-Type': TYPES[extname(file)] ?? 'application/octet-stream',
-        'Cross-Origin-Opener-Policy': 'same-origin',
-        'Cross-Origin-Embedder-Policy': 'require-corp',
-        'Cache-Control': 'no-store',
-      });
-      response.end(body);
-    } catch {
-      response.writeHead(404).end();
-    }
+/** The system Chromium (or $CHROMIUM), headless, with `extraArgs` besides the quiet flags. */
+export function launchChromium(extraArgs = []) {
+  return chromium.launch({
+    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
+    args: [...CHROMIUM_FLAGS, ...extraArgs],
   });
-  await new Promise((done) => server.listen(0, '127.0.0.1', done));
-  return { server, origin: `http://127.0.0.1:${server.address().port}` };
 }
 
 /**
@@ -65,11 +41,8 @@ export async function startServer() {
  * priority there).
  */
 export async function runInBrowser(jobs, { threads = 2, afterLaunch } = {}) {
-  const { server, origin } = await startServer();
-  const browser = await chromium.launch({
-    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-    args: CHROMIUM_FLAGS,
-  });
+  const { server, origin } = await startServer({ port: 0, roots: ROOTS });
+  const browser = await launchChromium();
   try {
     await afterLaunch?.();
     const page = await browser.newPage();

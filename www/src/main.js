@@ -112,7 +112,7 @@ async function openScene(files) {
   $('scene-name').textContent = `${model.name}`;
   dismissMessage();
   clearResults();
-  updateRadiusSlider();
+  setSelectionRadius(sliderRadius());
   $('progress-text').textContent = '\u00a0';
   setStatus('ready');
   return true;
@@ -198,29 +198,24 @@ for (const input of document.querySelectorAll('input[name="template-kind"]')) {
 }
 
 /** The slider is logarithmic, from 0.2% to 50% of the scene's radius. */
+const RADIUS_SHARES = [0.002, 0.5];
+
 function sliderRadius() {
   const t = Number($('radius-slider').value) / 1000;
-  const r = view.sceneRadius;
-  return r * 0.002 * Math.pow(250, t);
+  const [low, high] = RADIUS_SHARES;
+  return view.sceneRadius * low * Math.pow(high / low, t);
 }
 
-function updateRadiusSlider() {
-  const radius = state.selection?.radius ?? sliderRadius();
-  const t = Math.log(radius / (view.sceneRadius * 0.002)) / Math.log(250);
-  $('radius-slider').value = String(Math.round(Math.min(Math.max(t, 0), 1) * 1000));
-  $('radius-value').textContent = formatLength(radius);
-}
-
+/** Sizes the selection sphere (clamped to the slider's range) and moves the slider to match. */
 function setSelectionRadius(radius) {
-  const limit = [view.sceneRadius * 0.002, view.sceneRadius * 0.5];
-  radius = Math.min(Math.max(radius, limit[0]), limit[1]);
+  const [low, high] = RADIUS_SHARES.map((share) => view.sceneRadius * share);
+  radius = Math.min(Math.max(radius, low), high);
   if (state.selection) {
     state.selection = { ...state.selection, radius };
     view.setSelection(state.selection);
   }
   $('radius-value').textContent = formatLength(radius);
-  const t = Math.log(radius / limit[0]) / Math.log(250);
-  $('radius-slider').value = String(Math.round(t * 1000));
+  $('radius-slider').value = String(Math.round((Math.log(radius / low) / Math.log(high / low)) * 1000));
 }
 
 $('radius-slider').addEventListener('input', () => setSelectionRadius(sliderRadius()));

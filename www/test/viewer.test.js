@@ -9,8 +9,7 @@ import { resolve } from 'node:path';
 import { test } from 'node:test';
 import { fileURLToPath } from 'node:url';
 
-import { chromium } from 'playwright-core';
-
+import { launchChromium } from '../../js/test/browser.js';
 import { startServer } from '../server.js';
 
 const repo = fileURLToPath(new URL('../../', import.meta.url));
@@ -18,25 +17,13 @@ const shared = process.env.FAST_REJECT_SHARED ?? resolve(repo, '../shared');
 const screenshots = process.env.VIEWER_SCREENSHOTS ?? resolve(repo, 'target/viewer');
 const zooBunny = resolve(shared, 'scenes/zoo-bunny');
 
-const CHROMIUM_FLAGS = [
-  '--no-sandbox',
-  '--disable-dev-shm-usage',
-  '--disable-background-networking',
-  '--disable-component-update',
-  '--disable-sync',
-  '--no-first-run',
-  // WebGL on the CPU: headless Chromium on a machine without a GPU.
-  '--use-angle=swiftshader',
-  '--enable-unsafe-swiftshader',
-];
+// WebGL on the CPU: headless Chromium on a machine without a GPU.
+const WEBGL_FLAGS = ['--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
 
 /** Opens the viewer; the caller must `close()`. */
 async function openViewer({ isolation }) {
   const { server, origin } = await startServer({ port: 0, isolation });
-  const browser = await chromium.launch({
-    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-    args: CHROMIUM_FLAGS,
-  });
+  const browser = await launchChromium(WEBGL_FLAGS);
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const problems = [];
   page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
