@@ -47,13 +47,26 @@ const RINGS: usize = 2 * BANDWIDTH;
 const HALF_RINGS: usize = BANDWIDTH;
 const SECTORS: usize = 2 * BANDWIDTH;
 const HALF_SECTORS: usize = BANDWIDTH;
-const _: () = assert!((RINGS * SECTORS) % CHUNK == 0);
+const QUARTER_SECTORS: usize = BANDWIDTH / 2;
+// A sampling chunk is one ring (one z): the samplers rely on it.
+const _: () = assert!(CHUNK == SECTORS);
 
 /// The per-degree energies of one sphere.
 pub type Signature = [f32; DEGREES];
 
 /// Orders with even and odd m: the phi + pi fold treats them apart.
 const HALF_ORDERS: usize = DEGREES / 2;
+
+/// (-1)^i for i < HALF_ORDERS.
+const ALTERNATING: [f32; HALF_ORDERS] = {
+    let mut a = [1.0f32; HALF_ORDERS];
+    let mut i = 1;
+    while i < HALF_ORDERS {
+        a[i] = -a[i - 1];
+        i += 1;
+    }
+    a
+};
 
 /// Degrees of one parity for one order: at most DEGREES / 2.
 const PARITY_LANES: usize = DEGREES / 2;
@@ -63,12 +76,11 @@ const PARITY_LANES: usize = DEGREES / 2;
 /// The loops below keep their innermost index over independent
 /// accumulators (orders m, then degrees l) so that they vectorize.
 pub struct SphericalTransform {
-    /// cos(m phi_k) and sin(m phi_k) for k < SECTORS / 2, m = 2i (even) or
-    /// 2i + 1 (odd): `[k][i]`.
-    cos_even: [[f32; HALF_ORDERS]; HALF_SECTORS],
-    sin_even: [[f32; HALF_ORDERS]; HALF_SECTORS],
-    cos_odd: [[f32; HALF_ORDERS]; HALF_SECTORS],
-    sin_odd: [[f32; HALF_ORDERS]; HALF_SECTORS],
+    /// For k < SECTORS / 4 (the folds in `signature` cover the rest):
+    /// `[k]` = [cos(m phi_k), -sin(m phi_k)] for the even orders m = 2i,
+    /// then the same for the odd orders m = 2i + 1, each `[i]`: the real
+    /// and imaginary parts of e^{-i m phi_k}.
+    fourier: [[[f32; HALF_ORDERS]; 4]; QUARTER_SECTORS],
     /// Quadrature weight x normalized Legendre value, for the northern rings
     /// j < RINGS / 2 (southern ones fold in by parity): `legendre[m][p][j]`
     /// holds the degrees l >= m with l + m of parity p, in order, padded
@@ -87,20 +99,17 @@ impl SphericalTransform {
     /// Builds the tables.
     pub fn new() -> SphericalTransform {
         let mut t = SphericalTransform {
-            cos_even: [[0.0; HALF_ORDERS]; HALF_SECTORS],
-            sin_even: [[0.0; HALF_ORDERS]; HALF_SECTORS],
-            cos_odd: [[0.0; HALF_ORDERS]; HALF_SECTORS],
-            sin_odd: [[0.0; HALF_ORDERS]; HALF_SECTORS],
+            fourier: [[[0.0; HALF_ORDERS]; 4]; QUARTER_SECTORS],
             legendre: vec![[[[0.0; PARITY_LANES]; HALF_RINGS]; 2]; DEGREES],
         };
-        for k in 0..HALF_SECTORS {
+        for k in 0..QUARTER_SECTORS {
             for i in 0..HALF_ORDERS {
                 let (se, ce) = ((2 * i) as f64 * phi(k)).sin_cos();
                 let (so, co) = ((2 * i + 1) as f64 * phi(k)).sin_cos();
-                t.cos_even[k][i] = ce as f32;
-                t.sin_even[k][i] = se as f32;
-                t.cos_odd[k][i] = co as f32;
-                t.sin_odd[k][i] = so as f32;
+                t.fourier[k][0][i] = ce as f32;
+                t.fourier[k][1][i] = -se as f32;
+                t.fourier[k][2][i] = co as f32;
+                t.fourier[k][3][i] = -so as f32;
             }
         }
         let weights = fejer_weights();
@@ -119,29 +128,44 @@ impl SphericalTransform {
     /// The per-degree energies of samples `f[j * SECTORS + k]` taken at
     /// (theta_j, phi_k), normalized as the module doc says.
     pub fn signature(&self, f: &[f32; RINGS * SECTORS]) -> Signature {
-        // Fourier coefficients per ring for m < L, folding phi and phi + pi:
-        // even orders see f(phi) + f(phi + pi), odd ones the difference.
+        // Fourier coefficients per ring for m < L, folding twice. phi + pi:
+        // even orders see g = f(phi) + f(phi + pi), odd ones h = the
+        // difference. Then pi - phi: cos(m (pi - phi)) = (-1)^m cos(m phi)
+        // and sin(m (pi - phi)) = -(-1)^m sin(m phi), so each order reads
+        // the sum or the difference of g (or h) at k and HALF_SECTORS - k.
+        // Sectors 0 and QUARTER_SECTORS pair with themselves: they start the
+        // sums, with cos(m pi / 2) and sin(m pi / 2) = (-1)^i or 0.
         let mut re = [[0.0f32; DEGREES]; RINGS];
         let mut im = [[0.0f32; DEGREES]; RINGS];
         for j in 0..RINGS {
             let ring = &f[j * SECTORS..(j + 1) * SECTORS];
-            let (mut er, mut ei) = ([0.0f32; HALF_ORDERS], [0.0f32; HALF_ORDERS]);
-            let (mut or, mut oi) = ([0.0f32; HALF_ORDERS], [0.0f32; HALF_ORDERS]);
-            for k in 0..HALF_SECTORS {
-                let sum = ring[k] + ring[k + HALF_SECTORS];
-                let diff = ring[k] - ring[k + HALF_SECTORS];
-                for i in 0..HALF_ORDERS {
-                    er[i] += sum * self.cos_even[k][i];
-                    ei[i] -= sum * self.sin_even[k][i];
-                    or[i] += diff * self.cos_odd[k][i];
-                    oi[i] -= diff * self.sin_odd[k][i];
+            let g = |k: usize| ring[k] + ring[k + HALF_SECTORS];
+            let h = |k: usize| ring[k] - ring[k + HALF_SECTORS];
+            let (g0, gq, h0, hq) = (g(0), g(QUARTER_SECTORS), h(0), h(QUARTER_SECTORS));
+            // Accumulators [even re, even im, odd re, odd im][i].
+            let mut acc = [
+                ALTERNATING.map(|s| g0 + s * gq),
+                [0.0f32; HALF_ORDERS],
+                [h0; HALF_ORDERS],
+                ALTERNATING.map(|s| -s * hq),
+            ];
+            for k in 1..QUARTER_SECTORS {
+                let (ga, gb) = (g(k), g(HALF_SECTORS - k));
+                let (ha, hb) = (h(k), h(HALF_SECTORS - k));
+                // What each accumulator reads at this k, in its order.
+                let folded = [ga + gb, ga - gb, ha - hb, ha + hb];
+                let table = &self.fourier[k];
+                for a in 0..4 {
+                    for i in 0..HALF_ORDERS {
+                        acc[a][i] += folded[a] * table[a][i];
+                    }
                 }
             }
             for i in 0..HALF_ORDERS {
-                re[j][2 * i] = er[i];
-                im[j][2 * i] = ei[i];
-                re[j][2 * i + 1] = or[i];
-                im[j][2 * i + 1] = oi[i];
+                re[j][2 * i] = acc[0][i];
+                im[j][2 * i] = acc[1][i];
+                re[j][2 * i + 1] = acc[2][i];
+                im[j][2 * i + 1] = acc[3][i];
             }
         }
         // Legendre step, folding theta and pi - theta: degrees with l + m
@@ -245,10 +269,10 @@ const CHUNK: usize = 64;
 pub struct SphereSampler {
     radius: f64,
     level: u32,
-    /// Level 0: offset of the lower interpolation corner (voxels), the word
+    /// Level 0: offset of the lower interpolation corner (voxels), the byte
     /// offset of its row, and the fractional position.
     off: [Vec<i32>; 3],
-    row: Vec<i64>,
+    row: Vec<i32>,
     frac: [Vec<f32>; 3],
     /// Level > 0: the sample directions times the radius, in blocks, fixed
     /// point with [`FIXED`] fractional bits.
@@ -295,8 +319,10 @@ impl SphereSampler {
                     s.off[a].push(b[a] as i32);
                     s.frac[a].push((d[a] - b[a]) as f32);
                 }
-                s.row
-                    .push((b[2] as i64 * dims[1] as i64 + b[1] as i64) * wpr as i64);
+                let row_words = (b[2] as i64 * dims[1] as i64 + b[1] as i64) * wpr as i64;
+                s.row.push(
+                    i32::try_from(8 * row_words).expect("a sphere spans less than 2 GiB of grid"),
+                );
             }
         }
         if level > 0 {
@@ -325,51 +351,69 @@ impl SphereSampler {
         debug_assert_eq!(grid.dims(), self.dims);
         let c = v.map(|x| x as i64);
         let words = grid.words();
-        // Little-endian words laid out as bytes: bit x of a row is bit x % 8
-        // of its byte x / 8, so two neighbours are one u16 read away.
         let bytes: &[u8] = bytemuck::cast_slice(words);
         let base = (c[2] * self.dims[1] as i64 + c[1]) * self.wpr as i64;
         let (wpr, plane) = (self.wpr, self.plane);
         let (row_bytes, plane_bytes) = (8 * wpr, 8 * plane);
         // The lower corner must leave room for the upper one.
         let limit = self.dims.map(|d| d as u64 - 1);
-        let whole = (0..3).all(|a| {
+        // As in `sample_blocks`: a ring (one z) of a sphere inside the grid
+        // across x and y reads with no per-sample checks, and one wholly
+        // above or below the grid reads empty.
+        let inside_xy = (0..2).all(|a| {
             c[a] - self.reach_voxels >= 0 && c[a] + self.reach_voxels < self.dims[a] as i64
         });
+        // Little-endian words laid out as bytes: bit x of a row is bit x % 8
+        // of its byte x / 8, so two neighbours are one u16 read away. The
+        // centre's byte, and its bit within it.
+        let origin = 8 * base + (c[0] >> 3);
+        let phase = (c[0] & 7) as i32;
         let mut code = [0u32; CHUNK];
+        let mut byte = [0i32; CHUNK];
+        let mut shift = [0u32; CHUNK];
         for start in (0..out.len()).step_by(CHUNK) {
-            for i in 0..CHUNK {
-                let s = start + i;
-                let (x, y, z) = (
-                    c[0] + self.off[0][s] as i64,
-                    c[1] + self.off[1][s] as i64,
-                    c[2] + self.off[2][s] as i64,
-                );
-                code[i] = if whole
-                    || ((x as u64) < limit[0] && (y as u64) < limit[1] && (z as u64) < limit[2])
-                {
-                    if cfg!(target_endian = "little") {
-                        let b = 8 * (base + self.row[s]) as usize + (x >> 3) as usize;
-                        let shift = (x & 7) as u32;
-                        let cell = &bytes[b..b + plane_bytes + row_bytes + 2];
-                        let at = |o: usize| {
-                            ((u16::from_le_bytes([cell[o], cell[o + 1]]) >> shift) & 3) as u32
-                        };
-                        at(0)
-                            | at(row_bytes) << 2
-                            | at(plane_bytes) << 4
-                            | at(plane_bytes + row_bytes) << 6
-                    } else {
-                        let w = (base + self.row[s]) as usize + (x >> 6) as usize;
+            let z = c[2] + self.off[2][start] as i64;
+            if z < -1 || z > limit[2] as i64 {
+                out[start..start + CHUNK].fill(0.0);
+                continue;
+            }
+            if inside_xy && (z as u64) < limit[2] && cfg!(target_endian = "little") {
+                // Byte offsets and shifts in one vector pass, the reads in
+                // another.
+                for i in 0..CHUNK {
+                    let x = phase + self.off[0][start + i];
+                    byte[i] = self.row[start + i] + (x >> 3);
+                    shift[i] = (x & 7) as u32;
+                }
+                for i in 0..CHUNK {
+                    let cell =
+                        &bytes[(origin + byte[i] as i64) as usize..][..plane_bytes + row_bytes + 2];
+                    let at = |o: usize| {
+                        ((u16::from_le_bytes([cell[o], cell[o + 1]]) >> shift[i]) & 3) as u32
+                    };
+                    code[i] = at(0)
+                        | at(row_bytes) << 2
+                        | at(plane_bytes) << 4
+                        | at(plane_bytes + row_bytes) << 6;
+                }
+            } else {
+                for i in 0..CHUNK {
+                    let s = start + i;
+                    let (x, y) = (c[0] + self.off[0][s] as i64, c[1] + self.off[1][s] as i64);
+                    code[i] = if (x as u64) < limit[0]
+                        && (y as u64) < limit[1]
+                        && (z as u64) < limit[2]
+                    {
+                        let w = (base + self.row[s] as i64 / 8) as usize + (x >> 6) as usize;
                         let b = (x & 63) as u32;
                         pair(words, w, b)
                             | pair(words, w + wpr, b) << 2
                             | pair(words, w + plane, b) << 4
                             | pair(words, w + plane + wpr, b) << 6
-                    }
-                } else {
-                    corners_near_border(grid, x, y, z)
-                };
+                    } else {
+                        corners_near_border(grid, x, y, z)
+                    };
+                }
             }
             let (fx, fy, fz) = (
                 &self.frac[0][start..start + CHUNK],
@@ -411,8 +455,16 @@ impl SphereSampler {
         let limit = dims.map(|d| d as u32 - 1);
         let mask = (one - 1) as i32;
         let scale = 1.0 / one as f32;
+        // Where the sphere's cells lie inside the level across x and y (most
+        // spheres), a ring whose two planes are inside reads by in-plane
+        // offsets from its home row, with no per-sample checks. A chunk is
+        // one ring, at one z.
+        let home = centre.map(|c| c >> FIXED);
+        let reach = (self.radius / s as f64).ceil() as i32 + 2;
+        let inside_xy = (0..2).all(|a| home[a] - reach >= 0 && home[a] + reach < limit[a] as i32);
         let mut at = [[0i32; CHUNK]; 3];
         let mut frac = [[0.0f32; CHUNK]; 3];
+        let mut offset = [0u32; CHUNK];
         // Occupancy of the lower and upper corner along x, as two bytes.
         let mut pairs = [[0u16; CHUNK]; 4];
         for start in (0..out.len()).step_by(CHUNK) {
@@ -424,36 +476,30 @@ impl SphereSampler {
                     frac[a][i] = (q & mask) as f32 * scale;
                 }
             }
-            for i in 0..CHUNK {
-                let (x, y, z) = (at[0][i], at[1][i], at[2][i]);
-                // Negative coordinates wrap to large unsigned ones and fail too.
-                if (x as u32) < limit[0] && (y as u32) < limit[1] && (z as u32) < limit[2] {
-                    let b = (z as usize * dims[1] + y as usize) * row + x as usize;
-                    // One bounds check for the whole 2 x 2 x 2 cell.
-                    let cell = &occ[b..b + plane + row + 2];
+            let z = at[2][0];
+            if inside_xy && (z as u32) < limit[2] {
+                // The lowest cell corner the ring can reach, and offsets from it.
+                let corner = [home[0] - reach, home[1] - reach];
+                let first = (z as usize * dims[1] + corner[1] as usize) * row + corner[0] as usize;
+                let ring = &occ[first..];
+                for i in 0..CHUNK {
+                    offset[i] =
+                        ((at[1][i] - corner[1]) * row as i32 + (at[0][i] - corner[0])) as u32;
+                }
+                for i in 0..CHUNK {
+                    let cell = &ring[offset[i] as usize..][..plane + row + 2];
                     pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
                     pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
                     pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
                     pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
-                } else {
-                    for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
-                        let mut pair = 0u16;
-                        for dx in 0..2 {
-                            let (x, y, z) = (x + dx, y + dy, z + dz);
-                            let inside = x >= 0
-                                && y >= 0
-                                && z >= 0
-                                && x as u32 <= limit[0]
-                                && y as u32 <= limit[1]
-                                && z as u32 <= limit[2];
-                            if inside {
-                                pair |= (occ[(z as usize * dims[1] + y as usize) * row + x as usize]
-                                    as u16)
-                                    << (8 * dx);
-                            }
-                        }
-                        pairs[k][i] = pair;
-                    }
+                }
+            } else if z < -1 || z > limit[2] as i32 {
+                // Both planes lie outside the level: the ring reads empty.
+                out[start..start + CHUNK].fill(0.0);
+                continue;
+            } else {
+                for i in 0..CHUNK {
+                    pairs_near_border(occ, dims, [at[0][i], at[1][i], z], &mut pairs, i);
                 }
             }
             const NORM: f32 = 1.0 / 255.0;
@@ -466,6 +512,48 @@ impl SphereSampler {
                 out[start + i] = trilinear(c, [frac[0][i], frac[1][i], frac[2][i]]) * NORM;
             }
         }
+    }
+}
+
+/// The corner pairs of sample `i` at block `at` of a level with `dims`,
+/// checked against the level's bounds (outside reads as empty).
+fn pairs_near_border(
+    occ: &[u8],
+    dims: [usize; 3],
+    at: [i32; 3],
+    pairs: &mut [[u16; CHUNK]; 4],
+    i: usize,
+) {
+    let (row, plane) = (dims[0], dims[0] * dims[1]);
+    let limit = dims.map(|d| d as u32 - 1);
+    let [x, y, z] = at;
+    // Negative coordinates wrap to large unsigned ones and fail too.
+    if (x as u32) < limit[0] && (y as u32) < limit[1] && (z as u32) < limit[2] {
+        let b = (z as usize * dims[1] + y as usize) * row + x as usize;
+        // One bounds check for the whole 2 x 2 x 2 cell.
+        let cell = &occ[b..b + plane + row + 2];
+        pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
+        pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
+        pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
+        pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
+        return;
+    }
+    for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+        let mut pair = 0u16;
+        for dx in 0..2 {
+            let (x, y, z) = (x + dx, y + dy, z + dz);
+            let inside = x >= 0
+                && y >= 0
+                && z >= 0
+                && x as u32 <= limit[0]
+                && y as u32 <= limit[1]
+                && z as u32 <= limit[2];
+            if inside {
+                pair |= (occ[(z as usize * dims[1] + y as usize) * row + x as usize] as u16)
+                    << (8 * dx);
+            }
+        }
+        pairs[k][i] = pair;
     }
 }
 
