@@ -135,15 +135,16 @@ impl SphericalTransform {
         // the sum or the difference of g (or h) at k and HALF_SECTORS - k.
         // Sectors 0 and QUARTER_SECTORS pair with themselves: they start the
         // sums, with cos(m pi / 2) and sin(m pi / 2) = (-1)^i or 0.
-        let mut re = [[0.0f32; DEGREES]; RINGS];
-        let mut im = [[0.0f32; DEGREES]; RINGS];
-        for j in 0..RINGS {
+        // `coefficients[j][a][i]`: ring j, accumulator a (even re, even im,
+        // odd re, odd im), order 2i or 2i + 1; stored as accumulated, so that
+        // the products vectorize over i.
+        let mut coefficients = [[[0.0f32; HALF_ORDERS]; 4]; RINGS];
+        for (j, acc) in coefficients.iter_mut().enumerate() {
             let ring = &f[j * SECTORS..(j + 1) * SECTORS];
             let g = |k: usize| ring[k] + ring[k + HALF_SECTORS];
             let h = |k: usize| ring[k] - ring[k + HALF_SECTORS];
             let (g0, gq, h0, hq) = (g(0), g(QUARTER_SECTORS), h(0), h(QUARTER_SECTORS));
-            // Accumulators [even re, even im, odd re, odd im][i].
-            let mut acc = [
+            *acc = [
                 ALTERNATING.map(|s| g0 + s * gq),
                 [0.0f32; HALF_ORDERS],
                 [h0; HALF_ORDERS],
@@ -161,24 +162,17 @@ impl SphericalTransform {
                     }
                 }
             }
-            for i in 0..HALF_ORDERS {
-                re[j][2 * i] = acc[0][i];
-                im[j][2 * i] = acc[1][i];
-                re[j][2 * i + 1] = acc[2][i];
-                im[j][2 * i + 1] = acc[3][i];
-            }
         }
         // Legendre step, folding theta and pi - theta: degrees with l + m
         // even see the sum of the two rings, the others the difference.
         let mut energy = [0.0f64; DEGREES];
         for m in 0..DEGREES {
             let (mut ar, mut ai) = ([[0.0f32; PARITY_LANES]; 2], [[0.0f32; PARITY_LANES]; 2]);
+            let (a, i) = (2 * (m % 2), m / 2);
             for j in 0..HALF_RINGS {
-                let s = RINGS - 1 - j;
-                let folded = [
-                    (re[j][m] + re[s][m], im[j][m] + im[s][m]),
-                    (re[j][m] - re[s][m], im[j][m] - im[s][m]),
-                ];
+                let (north, south) = (&coefficients[j], &coefficients[RINGS - 1 - j]);
+                let (nr, ni, sr, si) = (north[a][i], north[a + 1][i], south[a][i], south[a + 1][i]);
+                let folded = [(nr + sr, ni + si), (nr - sr, ni - si)];
                 for p in 0..2 {
                     let table = &self.legendre[m][p][j];
                     let (fr, fi) = folded[p];
