@@ -124,6 +124,22 @@ impl Backend {
         }
         (0..len).map(f).collect()
     }
+
+    /// Runs two independent jobs, at the same time where threads allow, so
+    /// that a serial step of one overlaps the parallel work of the other.
+    pub fn join<A, B, FA, FB>(self, a: FA, b: FB) -> (A, B)
+    where
+        A: Send,
+        B: Send,
+        FA: FnOnce() -> A + Send,
+        FB: FnOnce() -> B + Send,
+    {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            return rayon::join(a, b);
+        }
+        (a(), b())
+    }
 }
 
 #[cfg(test)]

@@ -22,8 +22,11 @@ use crate::mesh::TriMesh;
 
 /// The solid voxels of a mesh: its surface voxels and its filled interior.
 pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
-    let mut solid = voxelize_surface(mesh, spec, backend);
-    let interior = fill_solid(mesh, spec, backend);
+    // Finding shells is partly serial: it overlaps the surface pass.
+    let (mut solid, interior) = backend.join(
+        || voxelize_surface(mesh, spec, backend),
+        || fill_solid(mesh, spec, backend),
+    );
     for (s, i) in solid.words_mut().iter_mut().zip(interior.words()) {
         *s |= i;
     }
