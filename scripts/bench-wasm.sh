@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/wasm-env.sh
 cargo build --release --bin fast-reject
-[[ -f pkg/threads/fast_reject_bg.wasm && -f pkg/plain/fast_reject_bg.wasm ]] || bash scripts/build-wasm.sh all
+build_pkg_if_stale
 if [[ -n ${BENCH_NICE:-} && ${BENCH_SESSION:-} != 1 ]]; then
   exec setsid env BENCH_SESSION=1 bash -c 'echo "$BENCH_NICE" > /proc/self/autogroup && exec nice -n "$BENCH_NICE" node js/bench.js "$@"' bench "$@"
 fi

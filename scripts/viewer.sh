@@ -9,8 +9,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-tools.sh --viewer
 source scripts/wasm-env.sh
-stamp=pkg/package.json
-if [[ ! -f $stamp ]] || [[ -n $(find src js/src js/package.pkg.json assets/demo Cargo.toml Cargo.lock -newer "$stamp" -print -quit) ]]; then
-  bash scripts/build-wasm.sh all
-fi
+build_pkg_if_stale
 exec node www/server.js "$@"

@@ -19,3 +19,13 @@ export RUSTUP_AUTO_INSTALL=0
 # Both wasm builds use 128-bit SIMD (Node 16.4+, every current browser):
 # LLVM vectorizes the descriptor loops with it, as it does with SSE natively.
 WASM_RUSTFLAGS="-C target-feature=+simd128"
+
+# Builds pkg/ (both builds) unless it is newer than every source it is made
+# from, so that no script serves or measures a stale build.
+build_pkg_if_stale() {
+  local stamp=pkg/package.json
+  if [[ ! -f $stamp || ! -f pkg/plain/fast_reject_bg.wasm || ! -f pkg/threads/fast_reject_bg.wasm ]] ||
+    [[ -n $(find src js/src js/package.pkg.json assets/demo Cargo.toml Cargo.lock -newer "$stamp" -print -quit) ]]; then
+    bash scripts/build-wasm.sh all
+  fi
+}
