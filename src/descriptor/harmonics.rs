@@ -271,7 +271,10 @@ pub struct SphereSampler {
     /// Level > 0: the sample directions times the radius, in blocks, fixed
     /// point with [`FIXED`] fractional bits.
     reach: [Vec<i32>; 3],
-    reach_voxels: i64,
+    /// How far a sample's cell corners can lie from the centre's cell, in
+    /// cells of the level read (voxels, or blocks with the centre's offset
+    /// within its block).
+    cell_reach: i64,
     wpr: usize,
     plane: usize,
     dims: [usize; 3],
@@ -291,7 +294,11 @@ impl SphereSampler {
             row: Vec::new(),
             frac: Default::default(),
             reach: Default::default(),
-            reach_voxels: radius.ceil() as i64 + 1,
+            cell_reach: if level == 0 {
+                radius.ceil() as i64 + 1
+            } else {
+                (radius / f64::from(1u32 << level)).ceil() as i64 + 2
+            },
             wpr,
             plane: wpr * dims[1],
             dims,
@@ -351,12 +358,7 @@ impl SphereSampler {
         let (row_bytes, plane_bytes) = (8 * wpr, 8 * plane);
         // The lower corner must leave room for the upper one.
         let limit = self.dims.map(|d| d as u64 - 1);
-        // As in `sample_blocks`: a ring (one z) of a sphere inside the grid
-        // across x and y reads with no per-sample checks, and one wholly
-        // above or below the grid reads empty.
-        let inside_xy = (0..2).all(|a| {
-            c[a] - self.reach_voxels >= 0 && c[a] + self.reach_voxels < self.dims[a] as i64
-        });
+        let inside_xy = spans_xy(c, self.cell_reach, self.dims);
         // Little-endian words laid out as bytes: bit x of a row is bit x % 8
         // of its byte x / 8, so two neighbours are one u16 read away. The
         // centre's byte, and its bit within it.
@@ -367,11 +369,12 @@ impl SphereSampler {
         let mut shift = [0u32; CHUNK];
         for start in (0..out.len()).step_by(CHUNK) {
             let z = c[2] + self.off[2][start] as i64;
-            if z < -1 || z > limit[2] as i64 {
+            let reads = ring_reads(z, limit[2] as i64, inside_xy);
+            if reads == RingReads::Empty {
                 out[start..start + CHUNK].fill(0.0);
                 continue;
             }
-            if inside_xy && (z as u64) < limit[2] && cfg!(target_endian = "little") {
+            if reads == RingReads::Unchecked && cfg!(target_endian = "little") {
                 // Byte offsets and shifts in one vector pass, the reads in
                 // another.
                 for i in 0..CHUNK {
@@ -449,13 +452,9 @@ impl SphereSampler {
         let limit = dims.map(|d| d as u32 - 1);
         let mask = (one - 1) as i32;
         let scale = 1.0 / one as f32;
-        // Where the sphere's cells lie inside the level across x and y (most
-        // spheres), a ring whose two planes are inside reads by in-plane
-        // offsets from its home row, with no per-sample checks. A chunk is
-        // one ring, at one z.
         let home = centre.map(|c| c >> FIXED);
-        let reach = (self.radius / s as f64).ceil() as i32 + 2;
-        let inside_xy = (0..2).all(|a| home[a] - reach >= 0 && home[a] + reach < limit[a] as i32);
+        let reach = self.cell_reach as i32;
+        let inside_xy = spans_xy(home.map(i64::from), self.cell_reach, dims);
         let mut at = [[0i32; CHUNK]; 3];
         let mut frac = [[0.0f32; CHUNK]; 3];
         let mut offset = [0u32; CHUNK];
@@ -471,8 +470,9 @@ impl SphereSampler {
                 }
             }
             let z = at[2][0];
-            if inside_xy && (z as u32) < limit[2] {
-                // The lowest cell corner the ring can reach, and offsets from it.
+            let reads = ring_reads(z as i64, limit[2] as i64, inside_xy);
+            if reads == RingReads::Unchecked {
+                // Offsets from the lowest cell corner the ring can reach.
                 let corner = [home[0] - reach, home[1] - reach];
                 let first = (z as usize * dims[1] + corner[1] as usize) * row + corner[0] as usize;
                 let ring = &occ[first..];
@@ -481,14 +481,9 @@ impl SphereSampler {
                         ((at[1][i] - corner[1]) * row as i32 + (at[0][i] - corner[0])) as u32;
                 }
                 for i in 0..CHUNK {
-                    let cell = &ring[offset[i] as usize..][..plane + row + 2];
-                    pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
-                    pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
-                    pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
-                    pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
+                    cell_pairs(&ring[offset[i] as usize..], row, plane, &mut pairs, i);
                 }
-            } else if z < -1 || z > limit[2] as i32 {
-                // Both planes lie outside the level: the ring reads empty.
+            } else if reads == RingReads::Empty {
                 out[start..start + CHUNK].fill(0.0);
                 continue;
             } else {
@@ -509,6 +504,47 @@ impl SphereSampler {
     }
 }
 
+/// How one ring of a sphere (one z: a chunk) reads its cells.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum RingReads {
+    /// Both planes of its cells lie above or below the grid: all empty.
+    Empty,
+    /// Inside the grid across x and y and both planes inside: no checks.
+    Unchecked,
+    /// Crossing a border: every sample checked.
+    Checked,
+}
+
+/// The reads of a ring whose cells' lower plane is `z`, on a grid whose
+/// last plane is `last`, for a sphere whose cells `inside_xy` or not.
+fn ring_reads(z: i64, last: i64, inside_xy: bool) -> RingReads {
+    if z < -1 || z > last {
+        RingReads::Empty
+    } else if inside_xy && (0..last).contains(&z) {
+        RingReads::Unchecked
+    } else {
+        RingReads::Checked
+    }
+}
+
+/// Whether every cell within `reach` of cell `centre` lies inside `dims`
+/// across x and y (most spheres: the shared scenes are flat, so it is z
+/// where spheres leave the grid, ring by ring).
+fn spans_xy(centre: [i64; 3], reach: i64, dims: [usize; 3]) -> bool {
+    (0..2).all(|a| centre[a] - reach >= 0 && centre[a] + reach < dims[a] as i64)
+}
+
+/// The corner pairs (x, x + 1) of the four rows of the cell starting at
+/// `cell[0]`, as sample `i` of `pairs` (one bounds check for all eight).
+#[inline(always)]
+fn cell_pairs(cell: &[u8], row: usize, plane: usize, pairs: &mut [[u16; CHUNK]; 4], i: usize) {
+    let cell = &cell[..plane + row + 2];
+    pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
+    pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
+    pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
+    pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
+}
+
 /// The corner pairs of sample `i` at block `at` of a level with `dims`,
 /// checked against the level's bounds (outside reads as empty).
 fn pairs_near_border(
@@ -524,12 +560,7 @@ fn pairs_near_border(
     // Negative coordinates wrap to large unsigned ones and fail too.
     if (x as u32) < limit[0] && (y as u32) < limit[1] && (z as u32) < limit[2] {
         let b = (z as usize * dims[1] + y as usize) * row + x as usize;
-        // One bounds check for the whole 2 x 2 x 2 cell.
-        let cell = &occ[b..b + plane + row + 2];
-        pairs[0][i] = u16::from_le_bytes([cell[0], cell[1]]);
-        pairs[1][i] = u16::from_le_bytes([cell[row], cell[row + 1]]);
-        pairs[2][i] = u16::from_le_bytes([cell[plane], cell[plane + 1]]);
-        pairs[3][i] = u16::from_le_bytes([cell[plane + row], cell[plane + row + 1]]);
+        cell_pairs(&occ[b..], row, plane, pairs, i);
         return;
     }
     for (k, (dy, dz)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
