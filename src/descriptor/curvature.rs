@@ -24,7 +24,7 @@
 use super::OnionDescriptor;
 use crate::math::{Vec3, symmetric_eigen};
 use crate::mesh::surface::{CurvedEdge, Surface};
-use crate::mesh::{closest_point_on_triangle, segment_length_in_ball, triangle_area_in_ball};
+use crate::mesh::{clip_triangle_to_ball, closest_point_on_triangle};
 
 /// The curvature descriptor of a scene's surface against a template's.
 pub struct CurvatureDescriptor<'a> {
@@ -361,8 +361,11 @@ struct Ball {
 impl Ball {
     /// Whether patch `p` lies wholly inside the ball.
     fn holds_patch(&self, surface: &Surface, p: u32) -> bool {
+        // |centre - c| + radius <= r, without a square root in the walk's
+        // hottest test.
         let (centre, radius) = surface.patch_bounds(p);
-        centre.dist(self.centre) + radius <= self.radius
+        let room = self.radius - radius;
+        room >= 0.0 && (centre - self.centre).norm2() <= room * room
     }
 
     /// Adds patch `p`, wholly inside, with its curved edges.
@@ -370,9 +373,8 @@ impl Ball {
         let (area, moment) = surface.patch_area(p);
         sums.area += area;
         sums.moment += moment;
-        for e in surface.patch_curved_edges(p) {
-            self.add_edge(e, e.length, sums);
-        }
+        let edges = surface.patch_curved_edges(p);
+        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
     }
 
     /// Adds triangle `t`, wholly inside, with its curved edges.
@@ -380,49 +382,65 @@ impl Ball {
         let area = surface.area(t);
         sums.area += area;
         sums.moment += centroid(surface.corners(t)) * area;
-        for e in surface.curved_edges(t) {
-            self.add_edge(e, e.length, sums);
-        }
+        let edges = surface.curved_edges(t);
+        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
     }
 
     /// Adds the part of triangle `t` inside the ball, with its curved edges
     /// clipped.
     fn add_cut(&self, surface: &Surface, t: u32, sums: &mut Sums) {
         let p = surface.corners(t);
-        let area = triangle_area_in_ball(p, self.centre, self.radius);
-        sums.area += area;
-        sums.moment += centroid(p) * area;
-        for e in surface.curved_edges(t) {
-            let inside = segment_length_in_ball(e.a, e.b, self.centre, self.radius);
-            if inside > 0.0 {
-                self.add_edge(e, inside, sums);
-            }
-        }
+        let clip = clip_triangle_to_ball(p, self.centre, self.radius);
+        sums.area += clip.area;
+        sums.moment += centroid(p) * clip.area;
+        let edges = surface.curved_edges(t);
+        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, clip.edges[e.side as usize]))));
     }
 
-    /// Adds `angle * length * d d^T`, with the edge direction d turned by
-    /// the rotation that takes the edge's normal to the centre's. Without
-    /// it, on a curved patch the edges tilt out of the centre's tangent
-    /// plane, the normal direction takes a share of the tensor, and the two
-    /// tangential eigenvalues shrink with the radius (16% at r = 0.6 R on a
-    /// sphere of radius R). Skipped where the surface has turned by 180
-    /// degrees or more.
-    fn add_edge(&self, e: &CurvedEdge, length: f64, sums: &mut Sums) {
-        let (n, u, d) = (e.normal, self.normal, e.direction);
-        let cos = n.dot(u);
-        if cos <= -1.0 + 1e-9 {
-            return;
-        }
-        // The minimal rotation taking n to u, applied to d (d is normal to
-        // n): R d = d - ((u . d) / (1 + n . u)) (n + u).
-        let d = d - (n + u) * (u.dot(d) / (1.0 + cos));
-        let w = e.angle * length;
-        let d = [d.x, d.y, d.z];
-        for i in 0..3 {
-            for j in i..3 {
-                sums.tensor[i][j] += w * d[i] * d[j];
+    /// The sum of `angle * length * d d^T` over `edges` (each with the
+    /// length of it that counts), upper triangle row by row, with each edge
+    /// direction d turned by the rotation that takes the edge's normal to
+    /// the centre's. Without it, on a curved patch the edges tilt out of the
+    /// centre's tangent plane, the normal direction takes a share of the
+    /// tensor, and the two tangential eigenvalues shrink with the radius
+    /// (16% at r = 0.6 R on a sphere of radius R). Skipped where the surface
+    /// has turned by 180 degrees or more. Summed in locals, not into `Sums`,
+    /// so that the edges do not wait on each other through memory.
+    fn edge_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> [f64; 6] {
+        let u = self.normal;
+        let mut sum = [0.0; 6];
+        for (e, length) in edges {
+            let (n, d) = (e.normal, e.direction);
+            let cos = n.dot(u);
+            if cos <= -1.0 + 1e-9 {
+                continue;
             }
+            // The minimal rotation taking n to u, applied to d (d is normal
+            // to n): R d = d - ((u . d) / (1 + n . u)) (n + u).
+            let d = d - (n + u) * (u.dot(d) / (1.0 + cos));
+            let w = e.angle * length;
+            let wd = d * w;
+            sum[0] += wd.x * d.x;
+            sum[1] += wd.x * d.y;
+            sum[2] += wd.x * d.z;
+            sum[3] += wd.y * d.y;
+            sum[4] += wd.y * d.z;
+            sum[5] += wd.z * d.z;
         }
+        sum
+    }
+}
+
+impl Sums {
+    /// Adds an edge tensor given as its upper triangle, row by row.
+    fn add_tensor(&mut self, upper: [f64; 6]) {
+        let t = &mut self.tensor;
+        t[0][0] += upper[0];
+        t[0][1] += upper[1];
+        t[0][2] += upper[2];
+        t[1][1] += upper[3];
+        t[1][2] += upper[4];
+        t[2][2] += upper[5];
     }
 }
 

@@ -74,11 +74,7 @@ pub struct Edge {
 /// What the curvature tensor needs of an edge with a nonzero angle.
 #[derive(Clone, Copy, Debug)]
 pub struct CurvedEdge {
-    /// End positions.
-    pub a: Vec3,
-    /// End positions.
-    pub b: Vec3,
-    /// Unit direction from `a` to `b`.
+    /// Unit direction (from the lower vertex id to the higher).
     pub direction: Vec3,
     /// Unit normal of the surface along the edge.
     pub normal: Vec3,
@@ -86,6 +82,9 @@ pub struct CurvedEdge {
     pub angle: f64,
     /// Length.
     pub length: f64,
+    /// Which edge of its owner triangle it is: edge i joins corners i and
+    /// i + 1, so a clip of the triangle tells how much of it is inside.
+    pub side: u8,
 }
 
 /// Spreads the low 10 bits of `x` to every third bit (Morton interleaving).
@@ -216,7 +215,8 @@ impl Surface {
                 _ => (0.0, Vec3::ZERO),
             };
             if angle != 0.0 {
-                owned.push((run[0].1 / 3, e));
+                // The owner and the half-edge it uses.
+                owned.push((run[0].1 / 3, run[0].1));
             }
             edges.push(Edge {
                 ends,
@@ -225,23 +225,23 @@ impl Surface {
             });
         }
         let (neighbour_start, neighbour_list) = compressed(triangles.len(), &neighbours);
-        let (curved_start, owned_ids) = compressed(triangles.len(), &owned);
-        let curved = owned_ids
+        let (curved_start, owned_halves) = compressed(triangles.len(), &owned);
+        let curved = owned_halves
             .iter()
-            .map(|&e| {
-                let edge: Edge = edges[e as usize];
+            .map(|&half| {
+                let side = half % 3;
+                let edge: Edge = edges[triangle_edges[(half / 3) as usize][side as usize] as usize];
                 let (a, b) = (
                     positions[edge.ends[0] as usize],
                     positions[edge.ends[1] as usize],
                 );
                 let length = (b - a).norm();
                 CurvedEdge {
-                    a,
-                    b,
                     direction: (b - a) * (1.0 / length),
                     normal: edge.normal,
                     angle: edge.angle,
                     length,
+                    side: side as u8,
                 }
             })
             .collect();
