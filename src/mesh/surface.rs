@@ -135,21 +135,32 @@ impl Surface {
             let q = (p - lo) * (1.0 / extent);
             spread_bits(cell(q.x)) | spread_bits(cell(q.y)) << 1 | spread_bits(cell(q.z)) << 2
         };
-        let mut order: Vec<u32> = (0..count as u32).collect();
-        order.sort_by_key(|&v| morton(positions[v as usize]));
+        // Keys computed once (not per comparison); ties keep file order.
+        let mut keyed: Vec<(u32, u32)> = (0..count as u32)
+            .map(|v| (morton(positions[v as usize]), v))
+            .collect();
+        keyed.sort_unstable();
+        let order: Vec<u32> = keyed.into_iter().map(|(_, v)| v).collect();
         let mut rank = vec![0u32; count];
         for (new, &old) in order.iter().enumerate() {
             rank[old as usize] = new as u32;
         }
         let positions: Vec<Vec3> = order.iter().map(|&v| positions[v as usize]).collect();
         let ids: Vec<u32> = welded.iter().map(|&id| rank[id as usize]).collect();
-        let mut triangles: Vec<[u32; 3]> = mesh
+        let triangles: Vec<[u32; 3]> = mesh
             .triangles()
             .iter()
             .map(|t| t.map(|i| ids[i as usize]))
             .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
             .collect();
-        triangles.sort_by_key(|t| t[0].min(t[1]).min(t[2]));
+        // By lowest vertex, ties in file order: a counting sort.
+        let by_lowest: Vec<(u32, u32)> = triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t[0].min(t[1]).min(t[2]), i as u32))
+            .collect();
+        let (_, sorted) = compressed(count, &by_lowest);
+        let triangles: Vec<[u32; 3]> = sorted.iter().map(|&i| triangles[i as usize]).collect();
         let corners: Vec<[Vec3; 3]> = triangles
             .iter()
             .map(|t| t.map(|v| positions[v as usize]))
@@ -160,15 +171,26 @@ impl Surface {
             .map(|p| 0.5 * face_normal(p).norm())
             .collect();
         // Half-edges sorted by their undirected key: equal keys are one edge.
-        let mut half: Vec<(u64, u32, bool)> = Vec::with_capacity(triangles.len() * 3);
-        for (ti, t) in triangles.iter().enumerate() {
-            for i in 0..3 {
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                half.push((key, (ti * 3 + i) as u32, a < b));
-            }
+        // Bucketed by the lower end (a counting sort), then each small
+        // bucket sorted by the higher end.
+        let lower_ends: Vec<(u32, u32)> = (0..triangles.len() * 3)
+            .map(|h| {
+                let t = triangles[h / 3];
+                (t[h % 3].min(t[(h + 1) % 3]), h as u32)
+            })
+            .collect();
+        let (bucket_start, by_lower) = compressed(count, &lower_ends);
+        let mut half: Vec<(u64, u32, bool)> = by_lower
+            .iter()
+            .map(|&h| {
+                let t = triangles[(h / 3) as usize];
+                let (a, b) = (t[(h % 3) as usize], t[(h as usize + 1) % 3]);
+                (((a.min(b) as u64) << 32) | a.max(b) as u64, h, a < b)
+            })
+            .collect();
+        for w in bucket_start.windows(2) {
+            half[w[0] as usize..w[1] as usize].sort_unstable_by_key(|h| (h.0, h.1));
         }
-        half.sort_unstable_by_key(|h| (h.0, h.1));
         let mut triangle_edges = vec![[0u32; 3]; triangles.len()];
         let mut edges = Vec::with_capacity(half.len() / 2 + 1);
         let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(half.len());
