@@ -62,7 +62,9 @@ pub struct CurvatureState {
 #[derive(Clone, Copy, Default)]
 struct Sums {
     area: f64,
-    tensor: [[f64; 3]; 3],
+    /// The symmetric edge tensor's upper triangle, row by row: xx, xy, xz,
+    /// yy, yz, zz.
+    tensor: [f64; 6],
     /// Area-weighted sum of positions (cut triangles at their centroid).
     moment: Vec3,
 }
@@ -307,14 +309,9 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
             centroid: Vec3::ZERO,
         };
     }
-    // Only the upper triangle is summed.
     let t = sums.tensor;
-    let tensor = [
-        [t[0][0], t[0][1], t[0][2]],
-        [t[0][1], t[1][1], t[1][2]],
-        [t[0][2], t[1][2], t[2][2]],
-    ]
-    .map(|row| row.map(|x| x / sums.area));
+    let tensor = [[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]
+        .map(|row| row.map(|x| x / sums.area));
     let (values, _) = symmetric_eigen(tensor);
     // Drop the eigenvalue of least magnitude (the normal's).
     let smallest = (0..3)
@@ -394,7 +391,11 @@ impl Ball {
         sums.area += clip.area;
         sums.moment += centroid(p) * clip.area;
         let edges = surface.curved_edges(t);
-        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, clip.edges[e.side as usize]))));
+        let inside = edges
+            .iter()
+            .map(|e| (e, clip.edges[e.side as usize]))
+            .filter(|&(_, length)| length > 0.0);
+        sums.add_tensor(self.edge_tensor(inside));
     }
 
     /// The sum of `angle * length * d d^T` over `edges` (each with the
@@ -404,8 +405,7 @@ impl Ball {
     /// centre's tangent plane, the normal direction takes a share of the
     /// tensor, and the two tangential eigenvalues shrink with the radius
     /// (16% at r = 0.6 R on a sphere of radius R). Skipped where the surface
-    /// has turned by 180 degrees or more. Summed in locals, not into `Sums`,
-    /// so that the edges do not wait on each other through memory.
+    /// has turned by 180 degrees or more.
     fn edge_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> [f64; 6] {
         let u = self.normal;
         let mut sum = [0.0; 6];
@@ -434,13 +434,9 @@ impl Ball {
 impl Sums {
     /// Adds an edge tensor given as its upper triangle, row by row.
     fn add_tensor(&mut self, upper: [f64; 6]) {
-        let t = &mut self.tensor;
-        t[0][0] += upper[0];
-        t[0][1] += upper[1];
-        t[0][2] += upper[2];
-        t[1][1] += upper[3];
-        t[1][2] += upper[4];
-        t[2][2] += upper[5];
+        for (sum, x) in self.tensor.iter_mut().zip(upper) {
+            *sum += x;
+        }
     }
 }
 

@@ -1,29 +1,9 @@
-//! Exact measures of mesh pieces inside a ball: the length of a segment and
-//! the area of a triangle. The curvature descriptor weighs edges by the
-//! first and normalizes by the second, so both must be exact rather than
-//! counted by vertices (which would depend on the tessellation).
+//! Exact measures of a triangle inside a ball: its area and the lengths of
+//! its edges. The curvature descriptor weighs edges by the second and
+//! normalizes by the first, so both must be exact rather than counted by
+//! vertices (which would depend on the tessellation).
 
 use crate::math::Vec3;
-
-/// Length of the segment `a`-`b` inside the ball of radius `r` at `c`.
-pub fn segment_length_in_ball(a: Vec3, b: Vec3, c: Vec3, r: f64) -> f64 {
-    // |a + t d - c|^2 = r^2:  (d.d) t^2 + 2 (d.f) t + (f.f - r^2) = 0.
-    let d = b - a;
-    let f = a - c;
-    let dd = d.dot(d);
-    if dd == 0.0 {
-        return 0.0;
-    }
-    let half_b = d.dot(f);
-    let disc = half_b * half_b - dd * (f.dot(f) - r * r);
-    if disc <= 0.0 {
-        return 0.0;
-    }
-    let root = disc.sqrt();
-    let t0 = ((-half_b - root) / dd).max(0.0);
-    let t1 = ((-half_b + root) / dd).min(1.0);
-    (t1 - t0).max(0.0) * dd.sqrt()
-}
 
 /// What of a triangle lies inside a ball.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,7 +82,7 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
         return ClippedTriangle { area: 0.0, edges };
     }
     let n = n * (1.0 / twice_area);
-    if len == 3 && inside.iter().all(|&x| x) {
+    if inside.iter().all(|&x| x) {
         return ClippedTriangle {
             area: 0.5 * twice_area,
             edges,
@@ -194,6 +174,27 @@ const SEGMENT_SERIES: [f64; 9] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Length of the segment `a`-`b` inside the ball of radius `r` at `c`:
+    /// the oracle for the clip's edge lengths, solved on its own.
+    fn segment_length_in_ball(a: Vec3, b: Vec3, c: Vec3, r: f64) -> f64 {
+        // |a + t d - c|^2 = r^2:  (d.d) t^2 + 2 (d.f) t + (f.f - r^2) = 0.
+        let d = b - a;
+        let f = a - c;
+        let dd = d.dot(d);
+        if dd == 0.0 {
+            return 0.0;
+        }
+        let half_b = d.dot(f);
+        let disc = half_b * half_b - dd * (f.dot(f) - r * r);
+        if disc <= 0.0 {
+            return 0.0;
+        }
+        let root = disc.sqrt();
+        let t0 = ((-half_b - root) / dd).max(0.0);
+        let t1 = ((-half_b + root) / dd).min(1.0);
+        (t1 - t0).max(0.0) * dd.sqrt()
+    }
 
     /// The independent oracle: the area as a sum over the edges of signed
     /// wedge areas (origin, edge) inside the disk.

@@ -16,7 +16,7 @@ pub mod shapes;
 pub mod surface;
 mod weld;
 
-pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_length_in_ball};
+pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball};
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
 pub use weld::weld_vertices;

@@ -173,18 +173,21 @@ impl Surface {
         // Half-edges sorted by their undirected key: equal keys are one edge.
         // Bucketed by the lower end (a counting sort), then each small
         // bucket sorted by the higher end.
-        let lower_ends: Vec<(u32, u32)> = (0..triangles.len() * 3)
+        let ends = |h: u32| {
+            let (t, i) = ((h / 3) as usize, (h % 3) as usize);
+            (triangles[t][i], triangles[t][(i + 1) % 3])
+        };
+        let lower_ends: Vec<(u32, u32)> = (0..triangles.len() as u32 * 3)
             .map(|h| {
-                let t = triangles[h / 3];
-                (t[h % 3].min(t[(h + 1) % 3]), h as u32)
+                let (a, b) = ends(h);
+                (a.min(b), h)
             })
             .collect();
         let (bucket_start, by_lower) = compressed(count, &lower_ends);
         let mut half: Vec<(u64, u32, bool)> = by_lower
             .iter()
             .map(|&h| {
-                let t = triangles[(h / 3) as usize];
-                let (a, b) = (t[(h % 3) as usize], t[(h as usize + 1) % 3]);
+                let (a, b) = ends(h);
                 (((a.min(b) as u64) << 32) | a.max(b) as u64, h, a < b)
             })
             .collect();
