@@ -1,7 +1,8 @@
 //! The Fast Reject loop (paper, Listing 1) over a chain of stages.
 //!
 //! Every scene point starts as a candidate. Each stage (a descriptor) runs its
-//! layers in order of growing radius; at each layer it computes that layer for
+//! layers in its order (growing radius unless the descriptor says otherwise,
+//! see [`OnionDescriptor::order`]); at each layer it computes that layer for
 //! the surviving points only and drops those whose running distance to the
 //! template passes the stage's threshold. The next stage starts from the
 //! previous one's survivors. Per-layer statistics go to an [`Observer`], which
@@ -19,7 +20,8 @@ use crate::exec::Backend;
 pub struct LayerStats {
     /// The stage's descriptor ("volume", "harmonics", ...).
     pub descriptor: &'static str,
-    /// Layer number, from 1.
+    /// Layer number, from 1 (innermost); layers are reported in the order
+    /// they were computed.
     pub layer: usize,
     /// The layer's radius in world units.
     pub radius: f64,
@@ -83,7 +85,7 @@ impl<D: OnionDescriptor> Stage for D {
             .into_iter()
             .map(|p| (p, self.start(p), 0.0))
             .collect();
-        for layer in 0..self.layers() {
+        for layer in self.order() {
             let start = now_ms();
             let entered = live.len();
             live = backend.filter_map_owned(live, |(p, mut state, _)| {

@@ -729,9 +729,11 @@ pub struct ClutterGuard<'a> {
 /// The running state of a point in the harmonics stage.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HarmonicsState {
+    /// Weighted squared differences of the spheres compared so far.
     sum2: f64,
-    /// A cluttered sphere was met: the rest are not compared.
-    excused: bool,
+    /// The first cluttered sphere met: it and the larger ones are not
+    /// compared, and the point is judged over the spheres inside it.
+    excused_at: Option<usize>,
 }
 
 impl OnionDescriptor for HarmonicsDescriptor<'_> {
@@ -753,16 +755,24 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         self.threshold
     }
 
+    /// Every sphere costs the same (see [`ClutterPolicy::selective_order`]).
+    fn order(&self) -> Vec<usize> {
+        ClutterPolicy::selective_order(self.clean_layers, self.spheres.len())
+    }
+
     fn start(&self, _point: u32) -> HarmonicsState {
         HarmonicsState::default()
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
-        if state.excused {
+        let excusable = layer >= self.clean_layers;
+        // Excusable spheres come outward: this one lies beyond the first
+        // cluttered sphere and is not compared.
+        if excusable && state.excused_at.is_some() {
             return state.sum2.sqrt();
         }
         let v = self.points[point as usize];
-        let guard = self.clutter.as_ref().filter(|_| layer >= self.clean_layers);
+        let guard = self.clutter.as_ref().filter(|_| excusable);
         let cluttered_ball = guard.is_some_and(|g| {
             g.balls[layer].fraction(self.solid, v) - g.template[layer] > g.policy.volume_tolerance
         });
@@ -779,19 +789,20 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
             Some(sig) if !cluttered => {
                 state.sum2 +=
                     self.weights[layer] * signature_distance2(&sig, &self.template[layer]);
-                state.sum2.sqrt()
             }
-            _ => {
-                state.excused = true;
-                // Compared over `layer` spheres only: their root mean square
-                // must meet the threshold (the weights carry 1 / k).
-                let rms = (state.sum2 * self.spheres.len() as f64 / layer as f64).sqrt();
-                if rms > self.threshold {
-                    f64::INFINITY
-                } else {
-                    state.sum2.sqrt()
-                }
-            }
+            _ => state.excused_at = Some(layer),
+        }
+        // Compared over the `e` spheres inside the first cluttered one only:
+        // their root mean square must meet the threshold (the weights carry
+        // 1 / k). The spheres inside it still to come only add to the sum.
+        let budget = match state.excused_at {
+            Some(e) => self.threshold.powi(2) * e as f64 / self.spheres.len() as f64,
+            None => self.threshold.powi(2),
+        };
+        if state.sum2 > budget {
+            f64::INFINITY
+        } else {
+            state.sum2.sqrt()
         }
     }
 }

@@ -35,10 +35,21 @@ pub trait OnionDescriptor: Sync {
     /// The rejection threshold on the running distance.
     fn threshold(&self) -> f64;
 
+    /// The order in which the cascade computes the layers, each once.
+    /// Innermost first by default, the paper's order: inner layers are the
+    /// cheap ones when the cost grows with the radius, and an incremental
+    /// descriptor needs it. A descriptor whose layers all cost the same may
+    /// put the most selective first, as long as its distance stays a lower
+    /// bound that the last layer makes exact.
+    fn order(&self) -> Vec<usize> {
+        (0..self.layers()).collect()
+    }
+
     /// Fresh state for scene point `point`.
     fn start(&self, point: u32) -> Self::State;
 
-    /// Computes layer `layer` at `point` (layers come in order, each once)
-    /// and returns the running distance to the template's layers `0..=layer`.
+    /// Computes layer `layer` at `point` (in [`Self::order`]) and returns
+    /// the running distance over the layers computed so far: it never
+    /// decreases, and after the last layer it is the point's distance.
     fn extend(&self, point: u32, layer: usize, state: &mut Self::State) -> f64;
 }

@@ -246,3 +246,134 @@ fn voxelized_shapes_are_rotation_invariant_and_distinct() {
         "other shape at {d_other}, rotations up to {worst}"
     );
 }
+
+/// What the paper's order (innermost sphere first) decides for one point:
+/// its distance, or `None` when rejected; and whether clutter excused a
+/// sphere. Written from the rule in [`super::super::clutter`], sphere by
+/// sphere, independently of the stage's bookkeeping.
+fn innermost_first(
+    h: &HarmonicsDescriptor,
+    guard: &ClutterGuard,
+    v: [u16; 3],
+    clean: usize,
+) -> (Option<f64>, bool) {
+    let k = h.spheres.len();
+    let threshold2 = h.threshold * h.threshold;
+    let mut sum2 = 0.0;
+    for j in 0..k {
+        let sig = describe_sphere(h.solid, v, &h.spheres[j], h.transform);
+        let cluttered = j >= clean
+            && (guard.balls[j].fraction(h.solid, v) - guard.template[j]
+                > guard.policy.volume_tolerance
+                || (sig[0] - h.template[j][0]) as f64 > guard.policy.sphere_tolerance);
+        if cluttered {
+            // Judged over the j spheres inside: their mean must pass.
+            let passes = sum2 * k as f64 / j as f64 <= threshold2;
+            return (passes.then_some(sum2.sqrt()), true);
+        }
+        sum2 += h.weights[j] * signature_distance2(&sig, &h.template[j]);
+        if sum2 > threshold2 {
+            return (None, false);
+        }
+    }
+    (Some(sum2.sqrt()), false)
+}
+
+#[test]
+fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
+    use crate::cascade::run_cascade;
+    use crate::descriptor::VolumeDescriptor;
+    let t = SphericalTransform::new();
+    let voxel = 0.05;
+    let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
+    // Template: the lumpy shape; scene: a copy with a slab beside it
+    // (clutter for the outer spheres of the points on that side) and a
+    // torus nearby.
+    let template_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
+    let tspec = GridSpec::around(template_mesh.bounds(), voxel);
+    let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Backend::Serial));
+    let tv = skin(tsolid.bits())
+        .iter_ones()
+        .min_by(|a, b| {
+            let d = |v: &[u16; 3]| tspec.center(*v).dist(Vec3::new(0.0, 0.6, 0.0));
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let mut scene_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
+    scene_mesh.append(&cuboid(
+        Vec3::new(-1.6, -0.9, -0.9),
+        Vec3::new(-1.3, 0.9, 0.9),
+    ));
+    scene_mesh.append(&torus(Vec3::new(1.6, 1.6, 0.0), 0.4, 0.15, 32, 12));
+    let spec = GridSpec::around(scene_mesh.bounds(), voxel);
+    let solid = Solid::new(voxelize(&scene_mesh, &spec, Backend::Serial));
+    let points: Vec<[u16; 3]> = skin(solid.bits()).iter_ones().collect();
+    let volume = VolumeDescriptor::new(
+        &solid,
+        &points,
+        &radii,
+        VolumeDescriptor::describe(&tsolid, tv, &radii, Backend::Serial),
+        1.0,
+        Backend::Serial,
+    );
+    let guard = ClutterGuard {
+        policy: ClutterPolicy::DEFAULT,
+        balls: volume.balls(),
+        template: volume.template(),
+    };
+    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Backend::Serial);
+    let stage = |threshold: f64| {
+        HarmonicsDescriptor::new(
+            &solid,
+            &points,
+            &t,
+            &radii,
+            template.clone(),
+            threshold,
+            Backend::Serial,
+        )
+        .with_clutter(ClutterGuard { ..guard })
+    };
+    // A threshold that lets about a third of the points through.
+    let probe = stage(f64::INFINITY);
+    let clean = probe.clean_layers;
+    // r_k is 24 voxels: the four spheres out to 16 voxels always count.
+    assert_eq!(probe.order(), [3, 4, 5, 2, 1, 0]);
+    let decided: Vec<_> = points
+        .iter()
+        .map(|&v| innermost_first(&probe, &guard, v, clean))
+        .collect();
+    let mut distances: Vec<f64> = decided.iter().filter_map(|d| d.0).collect();
+    distances.sort_by(f64::total_cmp);
+    let threshold = distances[distances.len() / 3];
+    let h = stage(threshold);
+    let decided: Vec<_> = points
+        .iter()
+        .map(|&v| innermost_first(&h, &guard, v, clean))
+        .collect();
+    let oracle: Vec<(u32, f64)> = (0..points.len() as u32)
+        .zip(&decided)
+        .filter_map(|(i, d)| d.0.map(|d| (i, d)))
+        .collect();
+    // Every way a point can go must occur, or the comparison proves little.
+    let count = |excused: bool, passing: bool| {
+        let n = decided
+            .iter()
+            .filter(|d| d.1 == excused && d.0.is_some() == passing);
+        n.count()
+    };
+    let counts = [(false, true), (true, true), (true, false)].map(|(e, p)| count(e, p));
+    assert!(counts.iter().all(|&n| n > 20), "{counts:?}");
+    assert!(oracle.len() < points.len() / 2, "{}", oracle.len());
+    let candidates = (0..points.len() as u32).collect();
+    let (survivors, stats) = run_cascade(&[&h], candidates, Backend::Serial, &mut ()).unwrap();
+    assert_eq!(
+        stats.iter().map(|s| s.layer).collect::<Vec<_>>(),
+        [4, 5, 6, 3, 2, 1]
+    );
+    assert_eq!(survivors.len(), oracle.len());
+    for (s, (point, distance)) in survivors.iter().zip(&oracle) {
+        assert_eq!(s.point, *point);
+        assert!((s.distance - distance).abs() <= 1e-9 * distance.max(1.0));
+    }
+}
