@@ -262,7 +262,8 @@ impl Verifier {
         let mut best = score(&pose);
         let mut angle = REFINE_ANGLE;
         let mut step = 1.0;
-        while angle >= REFINE_ANGLE / 8.0 {
+        // A perfect score cannot be beaten: the rest would only confirm it.
+        while angle >= REFINE_ANGLE / 8.0 && best < 1.0 {
             let pivot = pose.shift;
             let mut improved = false;
             for axis in 0..3 {
