@@ -14,6 +14,12 @@
 //! 3. The voxel is solid when more valid columns call it inside than outside
 //!    (a majority of three, or a unanimous one or two when others abstain).
 //!
+//! A closed shell (every edge shared by an even number of its triangles) has
+//! no holes for a column to pass through: the three rays agree at every
+//! voxel centre not on the surface itself (and those voxels are surface
+//! voxels anyway), so one axis is enough, the one that meets the fewest
+//! triangles.
+//!
 //! A hole in the bunny's base spoils only the vertical columns through it; the
 //! two horizontal ones still agree. Crossings are counted with a watertight
 //! rasterization rule (shared edges are owned by exactly one triangle, with
@@ -42,6 +48,14 @@ pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
     out.into_grid()
 }
 
+/// The triangles of one edge-connected component, and whether it is closed.
+pub(crate) struct Shell {
+    /// Triangle indices into the mesh.
+    pub triangles: Vec<u32>,
+    /// Every edge is shared by an even number of the shell's triangles.
+    pub closed: bool,
+}
+
 /// Triangle indices of each shell.
 ///
 /// Triangles belong to one shell when they share an edge (after welding, so
@@ -52,7 +66,7 @@ pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
 /// meshes are separate objects), and instances of one mesh share its
 /// connectivity, computed once. Distinct parts are split into shells in
 /// parallel: that was the serial half of filling a scene.
-pub(crate) fn shells(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
+pub(crate) fn shells(mesh: &TriMesh, backend: Backend) -> Vec<Shell> {
     let parts = mesh.parts();
     let local_tris: Vec<Vec<[u32; 3]>> = parts
         .iter()
@@ -84,17 +98,16 @@ pub(crate) fn shells(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
     for (i, part) in parts.iter().enumerate() {
         let k = distinct.binary_search(&twin[i]).expect("a twin computes");
         let first = part.first_triangle;
-        shells.extend(
-            distinct_shells[k]
-                .iter()
-                .map(|s| s.iter().map(|&t| t + first).collect::<Vec<u32>>()),
-        );
+        shells.extend(distinct_shells[k].iter().map(|s| Shell {
+            triangles: s.triangles.iter().map(|&t| t + first).collect(),
+            closed: s.closed,
+        }));
     }
     shells
 }
 
 /// Shells of one part, as triangle indices within it.
-fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Vec<u32>> {
+fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Shell> {
     let (ids, n) = weld_vertices(positions);
     let tris: Vec<[u32; 3]> = triangles
         .iter()
@@ -145,14 +158,37 @@ fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Vec<u32>> 
         }
     }
     let mut shell_of_root = vec![u32::MAX; tris.len()];
-    let mut shells: Vec<Vec<u32>> = Vec::new();
+    let mut shells: Vec<Shell> = Vec::new();
     for ti in 0..tris.len() as u32 {
         let root = find(&mut parent, ti) as usize;
         if shell_of_root[root] == u32::MAX {
             shell_of_root[root] = shells.len() as u32;
-            shells.push(Vec::new());
+            shells.push(Shell {
+                triangles: Vec::new(),
+                closed: true,
+            });
         }
-        shells[shell_of_root[root] as usize].push(ti);
+        shells[shell_of_root[root] as usize].triangles.push(ti);
+    }
+    // An edge v-w (v < w) is used once by every triangle around v that has w
+    // as one of its other corners; an odd count opens the shell.
+    let mut others: Vec<(u32, u32)> = Vec::new();
+    for v in 0..n {
+        others.clear();
+        for &(t, a, b) in &around[start[v] as usize..start[v + 1] as usize] {
+            others.extend(
+                [(a, t), (b, t)]
+                    .into_iter()
+                    .filter(|&(w, _)| w as usize > v),
+            );
+        }
+        others.sort_unstable();
+        for run in others.chunk_by(|x, y| x.0 == y.0) {
+            if run.len() % 2 == 1 {
+                let root = find(&mut parent, run[0].1) as usize;
+                shells[shell_of_root[root] as usize].closed = false;
+            }
+        }
     }
     shells
 }
@@ -184,8 +220,9 @@ impl Block {
     }
 }
 
-fn fill_shell(mesh: &TriMesh, tris: &[u32], spec: &GridSpec, out: &AtomicGrid, backend: Backend) {
-    let corners: Vec<[Vec3; 3]> = tris
+fn fill_shell(mesh: &TriMesh, shell: &Shell, spec: &GridSpec, out: &AtomicGrid, backend: Backend) {
+    let corners: Vec<[Vec3; 3]> = shell
+        .triangles
         .iter()
         .map(|&t| mesh.corners(t as usize).map(|p| spec.to_grid(p)))
         .collect();
@@ -205,31 +242,59 @@ fn fill_shell(mesh: &TriMesh, tris: &[u32], spec: &GridSpec, out: &AtomicGrid, b
         ny: hi[1] - lo[1] + 1,
         nz: hi[2] - lo[2] + 1,
     };
-    // parity[a]: toggles, then (after the prefix XOR) parity along axis a.
-    // The three axes are independent: a large shell runs them side by side.
+    if shell.closed {
+        // Along the axis that crosses the least projected area.
+        let mut area = [0.0f64; 3];
+        for [a, b, c] in &corners {
+            let n = (*b - *a).cross(*c - *a);
+            area = [0, 1, 2].map(|k| area[k] + n[k].abs());
+        }
+        let axis = (0..3)
+            .min_by(|&i, &j| area[i].total_cmp(&area[j]))
+            .unwrap_or(2);
+        let inside = parity_along(axis, &corners, &block);
+        for z in 0..block.nz {
+            for y in 0..block.ny {
+                let row = (z * block.ny + y) * block.words;
+                for (k, &word) in inside[row..row + block.words].iter().enumerate() {
+                    out.or_word(block.first_word + k, block.lo[1] + y, block.lo[2] + z, word);
+                }
+            }
+        }
+        return;
+    }
+    // parity[a]: parity along axis a. The three axes are independent: a
+    // large shell runs them side by side.
     let mut parity = vec![Vec::new(); 3];
-    let axes = if tris.len() >= 4096 {
+    let axes = if corners.len() >= 4096 {
         backend
     } else {
         Backend::Serial
     };
     axes.for_each_row(&mut parity, 1, |axis, slot| {
-        let bits = &mut slot[0];
-        *bits = vec![0u64; block.len()];
-        for tri in &corners {
-            match axis {
-                0 => for_each_crossing::<0>(tri, &block, |v| block.toggle(bits, v)),
-                1 => for_each_crossing::<1>(tri, &block, |v| block.toggle(bits, v)),
-                _ => for_each_crossing::<2>(tri, &block, |v| block.toggle(bits, v)),
-            }
-        }
-        match axis {
-            0 => prefix_xor_x(bits, &block),
-            1 => prefix_xor_rows(bits, block.words, block.ny, block.nz, 1),
-            _ => prefix_xor_rows(bits, block.words, block.ny, block.nz, block.ny),
-        }
+        slot[0] = parity_along(axis, &corners, &block);
     });
     vote(&parity, &block, out);
+}
+
+/// The parity of the crossings along `axis` of every column of `block`:
+/// a crossing toggles the voxel where "inside" starts, and a prefix XOR
+/// along the axis turns the toggles into parity.
+fn parity_along(axis: usize, corners: &[[Vec3; 3]], block: &Block) -> Vec<u64> {
+    let mut bits = vec![0u64; block.len()];
+    for tri in corners {
+        match axis {
+            0 => for_each_crossing::<0>(tri, block, |v| block.toggle(&mut bits, v)),
+            1 => for_each_crossing::<1>(tri, block, |v| block.toggle(&mut bits, v)),
+            _ => for_each_crossing::<2>(tri, block, |v| block.toggle(&mut bits, v)),
+        }
+    }
+    match axis {
+        0 => prefix_xor_x(&mut bits, block),
+        1 => prefix_xor_rows(&mut bits, block.words, block.ny, block.nz, 1),
+        _ => prefix_xor_rows(&mut bits, block.words, block.ny, block.nz, block.ny),
+    }
+    bits
 }
 
 /// Calls `toggle` with the voxel where each crossing of the triangle by a
@@ -384,5 +449,48 @@ fn vote(parity: &[Vec<u64>], b: &Block, out: &AtomicGrid) {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::{cuboid, torus, uv_sphere};
+
+    /// The three-axis vote, which needs no closed shell: the oracle for the
+    /// one-axis fill of closed ones.
+    fn voted(mesh: &TriMesh, spec: &GridSpec) -> Grid {
+        let out = AtomicGrid::new(*spec);
+        for shell in shells(mesh, Backend::Serial) {
+            let open = Shell {
+                closed: false,
+                ..shell
+            };
+            fill_shell(mesh, &open, spec, &out, Backend::Serial);
+        }
+        out.into_grid()
+    }
+
+    #[test]
+    fn closed_shells_are_told_from_open_ones_and_fill_alike() {
+        let mut m = uv_sphere(Vec3::ZERO, 1.0, 48, 96);
+        m.append(&torus(Vec3::new(2.5, 0.0, 0.3), 0.8, 0.3, 48, 24));
+        m.append(&cuboid(
+            Vec3::new(-1.0, -1.0, -1.6),
+            Vec3::new(3.0, 1.0, -1.2),
+        ));
+        let found = shells(&m, Backend::Serial);
+        assert_eq!(found.len(), 3);
+        assert!(found.iter().all(|s| s.closed));
+        // A sphere with its south cap cut away is open.
+        let open = m
+            .filter_triangles(|t| m.corners(t).iter().all(|p| p.z > -0.96 || p.z < -1.1))
+            .unwrap();
+        let found = shells(&open, Backend::Serial);
+        assert_eq!(found.iter().filter(|s| !s.closed).count(), 1);
+        let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
+        let one_axis = fill_solid(&m, &spec, Backend::Serial);
+        assert!(one_axis.count_ones() > 0);
+        assert_eq!(one_axis, voted(&m, &spec));
     }
 }
