@@ -31,6 +31,9 @@
 //!   D reads as "the template deviates like a shift of D voxels", the same
 //!   scale for every sphere, template size and scene, which is what lets one
 //!   threshold serve them all; it only grows with i (monotonic).
+//! - Order: every sphere costs the same, so the stage computes them in the
+//!   order that rejects soonest rather than innermost first, with the same
+//!   survivors and distances ([`ClutterPolicy::selective_order`]).
 
 use super::volume::Ball;
 use super::{ClutterPolicy, OnionDescriptor};
