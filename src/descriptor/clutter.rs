@@ -128,12 +128,14 @@ impl ClutterPolicy {
     }
 
     /// How many leading layers of radii `radii_voxels` (increasing, in
-    /// voxels) always count.
+    /// voxels) always count: at least the first, so that a point is never
+    /// passed without being compared at all (one or two large layers).
     pub fn clean_layers(&self, radii_voxels: &[f64]) -> usize {
         let outer = radii_voxels.last().copied().unwrap_or(0.0);
         // Radii are multiples of r_k / k: a little slack keeps r_k / 3 in.
         let clean = (self.clean_fraction * outer).max(self.clean_voxels) * (1.0 + 1e-9);
-        radii_voxels.iter().take_while(|&&r| r <= clean).count()
+        let within = radii_voxels.iter().take_while(|&&r| r <= clean).count();
+        within.max(1).min(radii_voxels.len())
     }
 }
 
@@ -170,6 +172,14 @@ mod tests {
         // Everything excusable: outward.
         assert_eq!(ClutterPolicy::selective_order(0, 3), [0, 1, 2]);
         assert_eq!(ClutterPolicy::selective_order(1, 1), [0]);
+    }
+
+    #[test]
+    fn the_first_layer_always_counts() {
+        // r_1 = r_k / 2 = 40 voxels is beyond both r_k / 3 and 16 voxels.
+        assert_eq!(ClutterPolicy::DEFAULT.clean_layers(&[40.0, 80.0]), 1);
+        assert_eq!(ClutterPolicy::DEFAULT.clean_layers(&[80.0]), 1);
+        assert_eq!(ClutterPolicy::DEFAULT.clean_layers(&[]), 0);
     }
 
     #[test]
