@@ -143,17 +143,35 @@ fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Shell> {
         }
         x
     }
+    // Triangles with an edge that an odd number of triangles use: they open
+    // their shell. The edge v-w is used by every triangle around v that has
+    // w as one of its other corners: one, plus those that share w with it.
+    let mut open_edge_triangles = Vec::new();
+    let mut sharing: Vec<[u32; 2]> = Vec::new();
     for v in 0..n {
         let list = &around[start[v] as usize..start[v + 1] as usize];
+        sharing.clear();
+        sharing.resize(list.len(), [0, 0]);
         // Two triangles around v share an edge when they share another corner.
         for (i, &(t1, a1, b1)) in list.iter().enumerate() {
-            for &(t2, a2, b2) in &list[i + 1..] {
-                if a1 == a2 || a1 == b2 || b1 == a2 || b1 == b2 {
+            for (j, &(t2, a2, b2)) in list.iter().enumerate().skip(i + 1) {
+                let (a1_shared, b1_shared) = (a1 == a2 || a1 == b2, b1 == a2 || b1 == b2);
+                if a1_shared || b1_shared {
+                    sharing[i][0] += a1_shared as u32;
+                    sharing[i][1] += b1_shared as u32;
+                    sharing[j][0] += (a2 == a1 || a2 == b1) as u32;
+                    sharing[j][1] += (b2 == a1 || b2 == b1) as u32;
                     let (r1, r2) = (find(&mut parent, t1), find(&mut parent, t2));
                     if r1 != r2 {
                         parent[r1.max(r2) as usize] = r1.min(r2);
                     }
                 }
+            }
+        }
+        // Each edge once, from its lower end.
+        for (&(t, a, b), shared) in list.iter().zip(&sharing) {
+            if (a as usize > v && shared[0] % 2 == 0) || (b as usize > v && shared[1] % 2 == 0) {
+                open_edge_triangles.push(t);
             }
         }
     }
@@ -170,25 +188,9 @@ fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Shell> {
         }
         shells[shell_of_root[root] as usize].triangles.push(ti);
     }
-    // An edge v-w (v < w) is used once by every triangle around v that has w
-    // as one of its other corners; an odd count opens the shell.
-    let mut others: Vec<(u32, u32)> = Vec::new();
-    for v in 0..n {
-        others.clear();
-        for &(t, a, b) in &around[start[v] as usize..start[v + 1] as usize] {
-            others.extend(
-                [(a, t), (b, t)]
-                    .into_iter()
-                    .filter(|&(w, _)| w as usize > v),
-            );
-        }
-        others.sort_unstable();
-        for run in others.chunk_by(|x, y| x.0 == y.0) {
-            if run.len() % 2 == 1 {
-                let root = find(&mut parent, run[0].1) as usize;
-                shells[shell_of_root[root] as usize].closed = false;
-            }
-        }
+    for t in open_edge_triangles {
+        let root = find(&mut parent, t) as usize;
+        shells[shell_of_root[root] as usize].closed = false;
     }
     shells
 }
