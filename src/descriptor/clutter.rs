@@ -116,7 +116,8 @@ impl ClutterPolicy {
     /// - the other always-counted spheres last, inward.
     ///
     /// (The volume stage keeps the paper's order: its inner balls do reject,
-    /// and it costs a tenth as much.)
+    /// and on the shared scenes it costs a quarter of the harmonics stage or
+    /// less.)
     pub fn selective_order(clean: usize, layers: usize) -> Vec<usize> {
         let clean = clean.min(layers);
         clean
