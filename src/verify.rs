@@ -249,6 +249,45 @@ impl Verifier {
         counts
     }
 
+    /// The refinement score of `pose` when it beats `best`, or `None`: the
+    /// count stops as soon as the samples left cannot lift the score above
+    /// `best` even if every one of them hits (most trial poses of a good
+    /// placement lose, and they lose early).
+    fn score_above(
+        &self,
+        near_surface: &Grid,
+        bits: &Grid,
+        v: [i64; 3],
+        pose: &Pose,
+        best: f64,
+    ) -> Option<f64> {
+        let samples = self.surface.len().div_ceil(REFINE_STRIDE);
+        let (mut hits, mut buried) = (0, 0);
+        for (i, a) in self.surface.iter().step_by(REFINE_STRIDE).enumerate() {
+            if pose.lands(near_surface, v, *a) {
+                hits += 1;
+            } else if pose.lands(bits, v, *a) {
+                buried += 1;
+            }
+            if i % 64 == 63 {
+                // Buried samples count neither way, misses only against:
+                // the best the rest can do is hit.
+                let (left, misses) = (samples - i - 1, i + 1 - hits - buried);
+                let most = (hits + left) as f64 / (hits + misses + left).max(1) as f64;
+                if most <= best {
+                    return None;
+                }
+            }
+        }
+        let counts = SurfaceCounts {
+            hits,
+            buried,
+            total: samples,
+        };
+        let score = counts.score(self.max_hidden);
+        (score > best).then_some(score)
+    }
+
     /// Hill-climbs the pose by small rotations (about the placed centroid)
     /// and shifts while the surface agreement grows: a frame read from a
     /// ball's moments is off by a degree or two, which at the template's
@@ -276,8 +315,8 @@ impl Verifier {
                         ..pose
                     };
                     for cand in [turned, moved] {
-                        let s = score(&cand);
-                        if s > best {
+                        let beats = |p: &Pose| self.score_above(near_surface, bits, v, p, best);
+                        if let Some(s) = beats(&cand) {
                             best = s;
                             pose = cand;
                             improved = true;
@@ -408,4 +447,51 @@ fn spread<T: Copy>(items: Vec<T>) -> Vec<T> {
     (0..SAMPLES)
         .map(|i| items[(i as f64 * step) as usize])
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::{cuboid, uv_sphere};
+    use crate::voxel::{GridSpec, dilate, voxelize};
+
+    #[test]
+    fn stopping_a_losing_pose_early_decides_as_the_full_count() {
+        let mut m = uv_sphere(Vec3::ZERO, 0.6, 32, 64);
+        m.append(&cuboid(
+            Vec3::new(0.3, -0.15, -0.15),
+            Vec3::new(1.1, 0.15, 0.15),
+        ));
+        let spec = GridSpec::around(m.bounds(), 0.04);
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let near = dilate(&skin(solid.bits()));
+        let anchor = skin(solid.bits()).iter_ones().next().unwrap();
+        let radii = [8.0, 16.0, 24.0, 32.0];
+        let verifier = Verifier::new(&solid, anchor, Vec3::ZERO, &radii, 0.3, Backend::Serial);
+        let v = anchor.map(|c| c as i64);
+        let identity = Pose {
+            rows: [
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+            ],
+            shift: Vec3::ZERO,
+        };
+        let mut decided = [0usize; 2];
+        for k in 0..24 {
+            let pose = identity
+                .turned(k % 3, 0.01 * k as f64, Vec3::new(5.0, 0.0, 0.0))
+                .turned((k + 1) % 3, -0.004 * k as f64, Vec3::ZERO);
+            let full = verifier
+                .surface_counts(&near, solid.bits(), v, &pose, REFINE_STRIDE)
+                .score(verifier.max_hidden);
+            for best in [0.0, 0.5, 0.9, 0.97, 0.99, full, 0.999] {
+                let got = verifier.score_above(&near, solid.bits(), v, &pose, best);
+                assert_eq!(got, (full > best).then_some(full), "pose {k}, best {best}");
+                decided[got.is_some() as usize] += 1;
+            }
+        }
+        // Both outcomes occur, so the comparison means something.
+        assert!(decided[0] > 10 && decided[1] > 10, "{decided:?}");
+    }
 }
