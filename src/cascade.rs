@@ -81,12 +81,15 @@ impl<D: OnionDescriptor> Stage for D {
         report: &mut dyn FnMut(LayerStats) -> Result<()>,
     ) -> Result<Vec<Survivor>> {
         let threshold = self.threshold();
+        // Choosing the order is part of the first layer's time.
+        let mut begun = now_ms();
+        let order = self.order(&candidates, backend);
         let mut live: Vec<(u32, D::State, f64)> = candidates
             .into_iter()
             .map(|p| (p, self.start(p), 0.0))
             .collect();
-        for layer in self.order() {
-            let start = now_ms();
+        for layer in order {
+            let start = begun;
             let entered = live.len();
             live = backend.filter_map_owned(live, |(p, mut state, _)| {
                 let d = self.extend(p, layer, &mut state);
@@ -100,6 +103,7 @@ impl<D: OnionDescriptor> Stage for D {
                 survivors: live.len(),
                 ms: now_ms() - start,
             })?;
+            begun = now_ms();
         }
         Ok(live
             .into_iter()

@@ -102,29 +102,36 @@ impl ClutterPolicy {
         h(counted) / h(layers)
     }
 
-    /// The order in which the harmonics stage computes its `layers`
-    /// spheres, the first `clean` of which always count: the order that
-    /// rejects soonest, with the same survivors and distances as innermost
-    /// first. Every sphere costs the same (the pyramid keeps the samples per
-    /// block constant), so only selectivity matters:
-    /// - the largest always-counted sphere first: it rejects on its own at
-    ///   once, and large spheres tell shapes apart while small ones see "a
-    ///   smooth surface" everywhere (on the shared scenes the first sphere,
-    ///   r_k / 6, rejects under 5% of the points it is given);
-    /// - then the excusable spheres outward: one counts only once every
+    /// The orders in which the harmonics stage may compute its `layers`
+    /// spheres, the first `clean` of which always count, with the same
+    /// survivors and distances as innermost first. Every sphere costs the
+    /// same (the pyramid keeps the samples per block constant), so only
+    /// selectivity matters, and small spheres reject least: at that size
+    /// every smooth surface looks alike (on the shared scenes the first
+    /// sphere, r_k / 6, rejects under 5% of the points it is given). So:
+    /// - first the largest always-counted sphere (it rejects on its own at
+    ///   once) or, with `excusable_first`, the smallest excusable one (it
+    ///   counts at once unless clutter excuses it);
+    /// - the excusable spheres outward: one counts only once every
     ///   excusable sphere inside it is known to be clean;
     /// - the other always-counted spheres last, inward.
     ///
-    /// (The volume stage keeps the paper's order: its inner balls do reject,
-    /// and on the shared scenes it costs a quarter of the harmonics stage or
-    /// less.)
-    pub fn selective_order(clean: usize, layers: usize) -> Vec<usize> {
+    /// Which of the two leads is better depends on the scene (where objects
+    /// touch, the excusable sphere is often excused); the stage picks it on
+    /// a sample. (The volume stage keeps the paper's order: its inner balls
+    /// do reject, and on the shared scenes it costs a quarter of the
+    /// harmonics stage or less.)
+    pub fn selective_order(clean: usize, layers: usize, excusable_first: bool) -> Vec<usize> {
         let clean = clean.min(layers);
-        clean
-            .checked_sub(1)
-            .into_iter()
+        let lead = if excusable_first && clean < layers {
+            None
+        } else {
+            clean.checked_sub(1)
+        };
+        let rest_inward = (0..clean).rev().filter(move |&l| Some(l) != lead);
+        lead.into_iter()
             .chain(clean..layers)
-            .chain((0..clean.saturating_sub(1)).rev())
+            .chain(rest_inward)
             .collect()
     }
 
@@ -166,13 +173,18 @@ mod tests {
 
     #[test]
     fn selective_order_visits_every_layer_once_with_excusable_ones_outward() {
-        assert_eq!(ClutterPolicy::selective_order(2, 6), [1, 2, 3, 4, 5, 0]);
-        assert_eq!(ClutterPolicy::selective_order(4, 6), [3, 4, 5, 2, 1, 0]);
-        // Nothing excusable: largest first.
-        assert_eq!(ClutterPolicy::selective_order(usize::MAX, 3), [2, 1, 0]);
+        let order = ClutterPolicy::selective_order;
+        assert_eq!(order(2, 6, false), [1, 2, 3, 4, 5, 0]);
+        assert_eq!(order(2, 6, true), [2, 3, 4, 5, 1, 0]);
+        assert_eq!(order(4, 6, false), [3, 4, 5, 2, 1, 0]);
+        assert_eq!(order(4, 6, true), [4, 5, 3, 2, 1, 0]);
+        // Nothing excusable: largest first, either way.
+        assert_eq!(order(usize::MAX, 3, false), [2, 1, 0]);
+        assert_eq!(order(usize::MAX, 3, true), [2, 1, 0]);
         // Everything excusable: outward.
-        assert_eq!(ClutterPolicy::selective_order(0, 3), [0, 1, 2]);
-        assert_eq!(ClutterPolicy::selective_order(1, 1), [0]);
+        assert_eq!(order(0, 3, false), [0, 1, 2]);
+        assert_eq!(order(0, 3, true), [0, 1, 2]);
+        assert_eq!(order(1, 1, true), [0]);
     }
 
     #[test]

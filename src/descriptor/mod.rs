@@ -14,6 +14,8 @@ pub mod harmonics;
 pub mod volume;
 
 pub use clutter::ClutterPolicy;
+
+use crate::exec::Backend;
 pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::{Ball, VolumeDescriptor};
@@ -35,13 +37,15 @@ pub trait OnionDescriptor: Sync {
     /// The rejection threshold on the running distance.
     fn threshold(&self) -> f64;
 
-    /// The order in which the cascade computes the layers, each once.
-    /// Innermost first by default, the paper's order: inner layers are the
-    /// cheap ones when the cost grows with the radius, and an incremental
-    /// descriptor needs it. A descriptor whose layers all cost the same may
-    /// put the most selective first, as long as its distance stays a lower
+    /// The order in which the cascade computes the layers for `candidates`,
+    /// each layer once. Innermost first by default, the paper's order: inner
+    /// layers are the cheap ones when the cost grows with the radius, and an
+    /// incremental descriptor needs it. A descriptor whose layers all cost
+    /// the same may put the most selective first (and may look at a sample
+    /// of the candidates to find it), as long as its distance stays a lower
     /// bound that the last layer makes exact.
-    fn order(&self) -> Vec<usize> {
+    fn order(&self, candidates: &[u32], backend: Backend) -> Vec<usize> {
+        let _ = (candidates, backend);
         (0..self.layers()).collect()
     }
 
