@@ -14,11 +14,11 @@ pub mod harmonics;
 pub mod volume;
 
 pub use clutter::ClutterPolicy;
-
-use crate::exec::Backend;
 pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::{Ball, VolumeDescriptor};
+
+use crate::exec::Backend;
 
 /// A layered descriptor compared against a template's, point by point.
 pub trait OnionDescriptor: Sync {
@@ -37,15 +37,14 @@ pub trait OnionDescriptor: Sync {
     /// The rejection threshold on the running distance.
     fn threshold(&self) -> f64;
 
-    /// The order in which the cascade computes the layers for `candidates`,
+    /// The order in which the cascade computes the layers for the candidates,
     /// each layer once. Innermost first by default, the paper's order: inner
     /// layers are the cheap ones when the cost grows with the radius, and an
     /// incremental descriptor needs it. A descriptor whose layers all cost
     /// the same may put the most selective first (and may look at a sample
     /// of the candidates to find it), as long as its distance stays a lower
     /// bound that the last layer makes exact.
-    fn order(&self, candidates: &[u32], backend: Backend) -> Vec<usize> {
-        let _ = (candidates, backend);
+    fn order(&self, _candidates: &[u32], _backend: Backend) -> Vec<usize> {
         (0..self.layers()).collect()
     }
 
