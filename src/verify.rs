@@ -233,20 +233,8 @@ impl Verifier {
         pose: &Pose,
         stride: usize,
     ) -> SurfaceCounts {
-        let mut counts = SurfaceCounts {
-            hits: 0,
-            buried: 0,
-            total: 0,
-        };
-        for a in self.surface.iter().step_by(stride) {
-            counts.total += 1;
-            if pose.lands(near_surface, v, *a) {
-                counts.hits += 1;
-            } else if pose.lands(bits, v, *a) {
-                counts.buried += 1;
-            }
-        }
-        counts
+        self.counts_unless(near_surface, bits, v, pose, stride, |_, _| false)
+            .expect("never given up")
     }
 
     /// The refinement score of `pose` when it beats `best`, or `None`: the
@@ -261,31 +249,41 @@ impl Verifier {
         pose: &Pose,
         best: f64,
     ) -> Option<f64> {
-        let samples = self.surface.len().div_ceil(REFINE_STRIDE);
-        let (mut hits, mut buried) = (0, 0);
-        for (i, a) in self.surface.iter().step_by(REFINE_STRIDE).enumerate() {
-            if pose.lands(near_surface, v, *a) {
-                hits += 1;
-            } else if pose.lands(bits, v, *a) {
-                buried += 1;
-            }
-            if i % 64 == 63 {
-                // Buried samples count neither way, misses only against:
-                // the best the rest can do is hit.
-                let (left, misses) = (samples - i - 1, i + 1 - hits - buried);
-                let most = (hits + left) as f64 / (hits + misses + left).max(1) as f64;
-                if most <= best {
-                    return None;
-                }
-            }
-        }
-        let counts = SurfaceCounts {
-            hits,
-            buried,
-            total: samples,
-        };
+        let lost = |counts: &SurfaceCounts, left| counts.best_with(left) <= best;
+        let counts = self.counts_unless(near_surface, bits, v, pose, REFINE_STRIDE, lost)?;
         let score = counts.score(self.max_hidden);
         (score > best).then_some(score)
+    }
+
+    /// Counts where every `stride`-th surface sample lands, asking
+    /// `give_up(counts so far, samples left)` every 64 samples.
+    fn counts_unless(
+        &self,
+        near_surface: &Grid,
+        bits: &Grid,
+        v: [i64; 3],
+        pose: &Pose,
+        stride: usize,
+        give_up: impl Fn(&SurfaceCounts, usize) -> bool,
+    ) -> Option<SurfaceCounts> {
+        let samples = self.surface.len().div_ceil(stride);
+        let mut counts = SurfaceCounts {
+            hits: 0,
+            buried: 0,
+            total: 0,
+        };
+        for a in self.surface.iter().step_by(stride) {
+            counts.total += 1;
+            if pose.lands(near_surface, v, *a) {
+                counts.hits += 1;
+            } else if pose.lands(bits, v, *a) {
+                counts.buried += 1;
+            }
+            if counts.total % 64 == 0 && give_up(&counts, samples - counts.total) {
+                return None;
+            }
+        }
+        Some(counts)
     }
 
     /// Hill-climbs the pose by small rotations (about the placed centroid)
@@ -315,8 +313,7 @@ impl Verifier {
                         ..pose
                     };
                     for cand in [turned, moved] {
-                        let beats = |p: &Pose| self.score_above(near_surface, bits, v, p, best);
-                        if let Some(s) = beats(&cand) {
+                        if let Some(s) = self.score_above(near_surface, bits, v, &cand, best) {
                             best = s;
                             pose = cand;
                             improved = true;
@@ -351,6 +348,13 @@ impl SurfaceCounts {
             return 0.0;
         }
         self.hits as f64 / (self.total - self.buried).max(1) as f64
+    }
+
+    /// The highest agreement (buried samples aside) the count can still
+    /// reach with `left` samples to come: all of them hits.
+    fn best_with(&self, left: usize) -> f64 {
+        let misses = self.total - self.hits - self.buried;
+        (self.hits + left) as f64 / (self.hits + misses + left).max(1) as f64
     }
 }
 
