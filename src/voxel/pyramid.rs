@@ -104,8 +104,12 @@ impl CountLevel {
         // Counts go to entries 1.., then become running sums in place.
         backend.for_each_row(&mut prefix, stride, |r, row| {
             count(r, &mut row[1..]);
-            for x in 1..row.len() {
-                row[x] += row[x - 1];
+            // The running sum stays in a register: reading back the entry
+            // just written chains every step through memory.
+            let mut sum = 0;
+            for x in &mut row[1..] {
+                sum += *x;
+                *x = sum;
             }
         });
         let (shift, half) = (3 * level, 1u32 << (3 * level - 1));
