@@ -159,6 +159,11 @@ impl Scene {
         self.spec.voxel_size
     }
 
+    /// Whether the scene has been voxelized yet.
+    pub fn is_voxelized(&self) -> bool {
+        self.voxels.get().is_some()
+    }
+
     /// How long voxelization took, in milliseconds (0 if not voxelized).
     pub fn voxelize_ms(&self) -> f64 {
         self.voxels.get().map_or(0.0, |v| v.voxelize_ms)
