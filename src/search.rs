@@ -379,12 +379,10 @@ pub fn search(
     let radii = template.radii();
     let (tsolid, tvoxel, backend) = (template.solid(scene), template.voxel(), options.backend);
     let transform = SphericalTransform::new();
-    // The balls' tables are built once, then bound to each solid's layout.
+    // The balls' tables are built once: read at the template's one point,
+    // then bound to the scene's layout.
     let balls = VolumeDescriptor::unbound_balls(radii, scene.voxel_size(), backend);
-    let template_balls: Vec<_> = balls
-        .iter()
-        .map(|b| b.clone().bind(tsolid, backend))
-        .collect();
+    let template_volume = VolumeDescriptor::describe_with(tsolid, tvoxel, &balls, backend);
     let volume = VolumeDescriptor::with_balls(
         scene.solid(),
         scene.skin(),
@@ -393,7 +391,7 @@ pub fn search(
             .into_iter()
             .map(|b| b.bind(scene.solid(), backend))
             .collect(),
-        VolumeDescriptor::describe_with(tsolid, tvoxel, &template_balls),
+        template_volume,
         options.volume_threshold,
     )
     .with_clutter(options.clutter);

@@ -15,7 +15,7 @@
 use super::{ClutterPolicy, OnionDescriptor};
 use crate::exec::Backend;
 use crate::math::Vec3;
-use crate::voxel::{Grid, Solid, level_for_radius};
+use crate::voxel::{CountLevel, Grid, Solid, level_for_radius};
 
 /// Balls are counted on blocks at least this many times smaller than their
 /// radius. Measured on the cow at the pipeline's radii: the fraction differs
@@ -187,10 +187,7 @@ impl Ball {
             );
         }
         let level = solid.level(self.level, Backend::Serial);
-        let s = 1usize << self.level;
-        let p = v.map(|c| c as usize & (s - 1));
-        let phase = &self.phases[p[0] + s * (p[1] + s * p[2])];
-        let c = v.map(|x| (x as usize >> self.level) as i64);
+        let (phase, c) = self.phase_at(v);
         let d = level.dims().map(|x| x as i64);
         let sums = level.prefix();
         let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < d[a]);
@@ -203,24 +200,27 @@ impl Ball {
             }
             return (total, phase.voxels);
         }
-        for sp in &phase.spans {
-            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
-            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
-                continue;
-            }
-            let (x0, x1) = (
-                (c[0] + sp.x0 as i64).max(0),
-                (c[0] + sp.x1 as i64).min(d[0] - 1),
-            );
-            if x0 <= x1 {
-                total += level.run(
-                    level.row_start(y as usize, z as usize),
-                    x0 as usize,
-                    x1 as usize,
-                ) as u64;
-            }
+        (count_runs(level, phase, c), phase.voxels)
+    }
+
+    /// Like [`Ball::count`] on a ball that need not be bound to `solid`: run
+    /// by run, for a solid read at one point (a template's descriptor),
+    /// where binding every phase would cost more than the reads.
+    pub fn count_once(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
+        if self.level == 0 {
+            return self.count(solid, v);
         }
-        (total, phase.voxels)
+        let level = solid.level(self.level, Backend::Serial);
+        let (phase, c) = self.phase_at(v);
+        (count_runs(level, phase, c), phase.voxels)
+    }
+
+    /// The runs for voxel `v` (level > 0), and the block holding it.
+    fn phase_at(&self, v: [u16; 3]) -> (&Phase, [i64; 3]) {
+        let s = 1usize << self.level;
+        let p = v.map(|c| c as usize & (s - 1));
+        let block = v.map(|x| (x as usize >> self.level) as i64);
+        (&self.phases[p[0] + s * (p[1] + s * p[2])], block)
     }
 
     /// Calls `visit(offset, solid voxels)` for every block of the ball around
@@ -235,9 +235,7 @@ impl Ball {
         assert!(self.level > 0, "blocks exist from level 1");
         let level = solid.level(self.level, Backend::Serial);
         let s = 1i64 << self.level;
-        let p = v.map(|c| c as i64 & (s - 1));
-        let phase = &self.phases[(p[0] + s * (p[1] + s * p[2])) as usize];
-        let c = v.map(|x| (x as i64) >> self.level);
+        let (phase, c) = self.phase_at(v);
         let d = level.dims().map(|x| x as i64);
         let half = (s as f64 - 1.0) / 2.0;
         let centre = |b: i64, a: usize| (b * s) as f64 + half - v[a] as f64;
@@ -261,6 +259,31 @@ impl Ball {
         let (inside, all) = self.count(solid, v);
         inside as f64 / all as f64
     }
+}
+
+/// Solid voxels in the runs of `phase` around block `c` of `level`, run by
+/// run (runs outside the grid count as empty).
+fn count_runs(level: &CountLevel, phase: &Phase, c: [i64; 3]) -> u64 {
+    let d = level.dims().map(|x| x as i64);
+    let mut total = 0u64;
+    for sp in &phase.spans {
+        let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+        if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
+            continue;
+        }
+        let (x0, x1) = (
+            (c[0] + sp.x0 as i64).max(0),
+            (c[0] + sp.x1 as i64).min(d[0] - 1),
+        );
+        if x0 <= x1 {
+            total += level.run(
+                level.row_start(y as usize, z as usize),
+                x0 as usize,
+                x1 as usize,
+            ) as u64;
+        }
+    }
+    total
 }
 
 /// Set voxels of the bit grid in the runs around voxel `v`.
@@ -407,12 +430,29 @@ impl<'a> VolumeDescriptor<'a> {
     /// The descriptor of one voxel of any solid with this stage's voxel size:
     /// what the template side computes.
     pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Backend) -> Vec<f64> {
-        Self::describe_with(solid, v, &Self::bound_balls(solid, radii, backend))
+        let voxel = solid.bits().spec().voxel_size;
+        Self::describe_with(
+            solid,
+            v,
+            &Self::unbound_balls(radii, voxel, backend),
+            backend,
+        )
     }
 
-    /// The descriptor of voxel `v` with balls bound to `solid`.
-    pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball]) -> Vec<f64> {
-        balls.iter().map(|b| b.fraction(solid, v)).collect()
+    /// The descriptor of voxel `v` from `balls`, bound to any solid or none:
+    /// one point is read run by run ([`Ball::count_once`]); the levels it
+    /// reads are built with `backend`.
+    pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball], backend: Backend) -> Vec<f64> {
+        balls
+            .iter()
+            .map(|b| {
+                if b.level() > 0 {
+                    solid.level(b.level(), backend);
+                }
+                let (inside, all) = b.count_once(solid, v);
+                inside as f64 / all as f64
+            })
+            .collect()
     }
 }
 
@@ -550,6 +590,29 @@ mod tests {
                 "r {r} (level {}): mean {mean} worst {worst}",
                 coarse.level()
             );
+        }
+    }
+
+    #[test]
+    fn counting_run_by_run_unbound_matches_the_bound_offsets() {
+        // What the template's one point reads, against what every
+        // candidate reads, inside the grid and across its border.
+        let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
+        let spec = GridSpec::for_scene(m.bounds(), 90).unwrap();
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let mut points: Vec<[u16; 3]> = skin(solid.bits()).iter_ones().step_by(7).collect();
+        points.extend([[0, 0, 0], [45, 45, 45], [2, 47, 88]]);
+        for r in [10.0, 20.0, 40.0] {
+            let unbound = Ball::new(r);
+            let bound = unbound.clone().bind(&solid, Backend::Serial);
+            assert!(bound.level() > 0);
+            for &v in &points {
+                assert_eq!(
+                    unbound.count_once(&solid, v),
+                    bound.count(&solid, v),
+                    "r {r} at {v:?}"
+                );
+            }
         }
     }
 
