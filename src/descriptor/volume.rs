@@ -25,7 +25,7 @@ pub const BLOCKS_PER_RADIUS: f64 = 4.5;
 
 /// One run of a digital ball: blocks (or voxels) `x0..=x1` of the row
 /// `(dy, dz)`, relative to the block holding the centre.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Span {
     dy: i16,
     dz: i16,
@@ -44,6 +44,53 @@ struct Phase {
     /// The runs as index pairs into a level's running sums, relative to the
     /// centre block's entry (set by [`Ball::bind`]).
     offsets: Vec<(i64, i64)>,
+}
+
+impl Phase {
+    /// The runs for the centre mirrored along the axes `flip` (x, y, z)
+    /// within its block, in the order [`Ball::phase`] would list them
+    /// (rows by z, then y), which the exact arithmetic there reproduces
+    /// bit for bit.
+    fn mirrored(&self, flip: [bool; 3]) -> Phase {
+        if flip == [false; 3] {
+            return self.clone();
+        }
+        let turn = |sp: &Span| {
+            let (x0, x1) = if flip[0] {
+                (-sp.x1, -sp.x0)
+            } else {
+                (sp.x0, sp.x1)
+            };
+            Span {
+                dy: if flip[1] { -sp.dy } else { sp.dy },
+                dz: if flip[2] { -sp.dz } else { sp.dz },
+                x0,
+                x1,
+            }
+        };
+        // Rows of one z run together, by increasing y: reverse the order of
+        // the rows (z flipped) and within them (y flipped).
+        let mut rows: Vec<&[Span]> = self.spans.chunk_by(|a, b| a.dz == b.dz).collect();
+        if flip[2] {
+            rows.reverse();
+        }
+        let mut spans = Vec::with_capacity(self.spans.len());
+        for row in rows {
+            if flip[1] {
+                spans.extend(row.iter().rev().map(turn));
+            } else {
+                spans.extend(row.iter().map(turn));
+            }
+        }
+        let (lo, hi) = (self.lo, self.hi);
+        Phase {
+            spans,
+            voxels: self.voxels,
+            lo: [0, 1, 2].map(|a| if flip[a] { -hi[a] } else { lo[a] }),
+            hi: [0, 1, 2].map(|a| if flip[a] { -lo[a] } else { hi[a] }),
+            offsets: Vec::new(),
+        }
+    }
 }
 
 /// The ball of a radius (in voxels) around a voxel centre, as runs of the
@@ -74,9 +121,20 @@ impl Ball {
     /// Like [`Ball::at_level`], computing the phases with `backend`.
     pub fn build(radius: f64, level: u32, backend: Backend) -> Ball {
         let s = 1i64 << level;
+        // A centre in the upper half of its block along an axis sees the
+        // ball of the mirrored position, mirrored: only the lower halves
+        // are computed (an eighth of the phases from level 1 on).
+        let half = (s + 1) / 2;
+        let lower = backend.map((half * half * half) as usize, |i| {
+            let i = i as i64;
+            Ball::phase(radius, s, [i % half, (i / half) % half, i / (half * half)])
+        });
         let phases = backend.map((s * s * s) as usize, |i| {
             let i = i as i64;
-            Ball::phase(radius, s, [i % s, (i / s) % s, i / (s * s)])
+            let p = [i % s, (i / s) % s, i / (s * s)];
+            let flip = p.map(|c| c >= half);
+            let q = p.map(|c| if c >= half { s - 1 - c } else { c });
+            lower[(q[0] + half * (q[1] + half * q[2])) as usize].mirrored(flip)
         });
         Ball {
             radius,
@@ -590,6 +648,23 @@ mod tests {
                 "r {r} (level {}): mean {mean} worst {worst}",
                 coarse.level()
             );
+        }
+    }
+
+    #[test]
+    fn mirrored_phases_are_the_phases_computed_directly() {
+        for (r, level) in [(3.0, 1), (12.3, 1), (24.6, 2), (36.9, 3), (30.5, 3)] {
+            let ball = Ball::at_level(r, level);
+            let s = 1i64 << level;
+            for (i, phase) in ball.phases.iter().enumerate() {
+                let i = i as i64;
+                let direct = Ball::phase(r, s, [i % s, (i / s) % s, i / (s * s)]);
+                assert_eq!(phase.spans, direct.spans, "r {r} level {level} phase {i}");
+                assert_eq!(
+                    (phase.voxels, phase.lo, phase.hi),
+                    (direct.voxels, direct.lo, direct.hi)
+                );
+            }
         }
     }
 
