@@ -103,6 +103,9 @@ impl CountLevel {
         let mut prefix = vec![0u32; stride * dims[1] * dims[2]];
         // Counts go to entries 1.., then become running sums in place.
         backend.for_each_row(&mut prefix, stride, |r, row| {
+            // Fresh zeroed memory is first touched by a write: a read first
+            // maps the shared zero page and the write then faults again.
+            row.fill(0);
             count(r, &mut row[1..]);
             // The running sum stays in a register: reading back the entry
             // just written chains every step through memory.
