@@ -100,8 +100,8 @@ impl Scene {
         self.voxels.get_or_init(|| {
             let start = now_ms();
             let grid = voxelize(&self.mesh, &self.spec, self.backend);
-            let skin_grid = skin(&grid);
-            let near_surface = dilate(&skin_grid);
+            let skin_grid = skin(&grid, self.backend);
+            let near_surface = dilate(&skin_grid, self.backend);
             let skin = skin_grid.iter_ones().collect();
             Voxels {
                 solid: Solid::new(grid),

@@ -76,7 +76,7 @@ impl Template {
                 let spec = GridSpec::around(mesh.bounds(), voxel_size);
                 spec.check_memory(GRIDS_IN_FLIGHT, max_grid_bytes, scene.resolution())?;
                 let grid = voxelize(mesh, &spec, backend);
-                let skin: Vec<[u16; 3]> = skin(&grid).iter_ones().collect();
+                let skin: Vec<[u16; 3]> = skin(&grid, backend).iter_ones().collect();
                 // The surface of the template is the boundary of its solid:
                 // with overlapping shells, the nearest point of a mesh may be
                 // buried inside another shell. So: the nearest skin voxel,

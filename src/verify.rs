@@ -132,7 +132,7 @@ impl Verifier {
         let radius = *radii.last().expect("at least one layer");
         let bits = solid.bits();
         let a = anchor.map(|c| c as i64);
-        let surface_pts: Vec<Vec3> = skin(bits)
+        let surface_pts: Vec<Vec3> = skin(bits, backend)
             .iter_ones()
             .map(|s| {
                 Vec3::new(
@@ -468,8 +468,8 @@ mod tests {
         ));
         let spec = GridSpec::around(m.bounds(), 0.04);
         let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
-        let near = dilate(&skin(solid.bits()));
-        let anchor = skin(solid.bits()).iter_ones().next().unwrap();
+        let near = dilate(&skin(solid.bits(), Backend::Serial), Backend::Serial);
+        let anchor = skin(solid.bits(), Backend::Serial).iter_ones().next().unwrap();
         let radii = [8.0, 16.0, 24.0, 32.0];
         let verifier = Verifier::new(&solid, anchor, Vec3::ZERO, &radii, 0.3, Backend::Serial);
         let v = anchor.map(|c| c as i64);

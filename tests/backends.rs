@@ -26,6 +26,7 @@ fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
     let (scene_p, parallel) = run(scene_bytes, template, Backend::Parallel);
     assert!(scene_s.grid() == scene_p.grid(), "voxel grids differ");
     assert_eq!(scene_s.skin(), scene_p.skin());
+    assert!(scene_s.near_surface() == scene_p.near_surface());
     let counts = |r: &MatchReport| {
         r.stages
             .iter()

@@ -143,7 +143,7 @@ fn skin_of_a_box_is_its_outer_layer() {
     let m = cuboid(Vec3::new(1.2, 1.2, 1.2), Vec3::new(10.8, 6.8, 4.8));
     let solid = fill_solid(&m, &spec, Backend::Serial);
     assert_eq!(solid.count_ones(), 10 * 6 * 4);
-    let s = skin(&solid);
+    let s = skin(&solid, Backend::Serial);
     assert_eq!(s.count_ones(), 10 * 6 * 4 - 8 * 4 * 2);
     assert!(s.get(1, 1, 1) && !s.get(5, 3, 2));
 }

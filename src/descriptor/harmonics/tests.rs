@@ -199,7 +199,7 @@ fn signatures_at(
     let spec = GridSpec::around(mesh.bounds(), voxel);
     let g = Solid::new(voxelize(mesh, &spec, Backend::Serial));
     let target = spec.to_grid(point);
-    let v = skin(g.bits())
+    let v = skin(g.bits(), Backend::Serial)
         .iter_ones()
         .min_by(|a, b| {
             let da =
@@ -292,7 +292,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     let template_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
     let tspec = GridSpec::around(template_mesh.bounds(), voxel);
     let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Backend::Serial));
-    let tv = skin(tsolid.bits())
+    let tv = skin(tsolid.bits(), Backend::Serial)
         .iter_ones()
         .min_by(|a, b| {
             let d = |v: &[u16; 3]| tspec.center(*v).dist(Vec3::new(0.0, 0.6, 0.0));
@@ -307,7 +307,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     scene_mesh.append(&torus(Vec3::new(1.6, 1.6, 0.0), 0.4, 0.15, 32, 12));
     let spec = GridSpec::around(scene_mesh.bounds(), voxel);
     let solid = Solid::new(voxelize(&scene_mesh, &spec, Backend::Serial));
-    let points: Vec<[u16; 3]> = skin(solid.bits()).iter_ones().collect();
+    let points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
     let volume = VolumeDescriptor::new(
         &solid,
         &points,
