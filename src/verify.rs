@@ -469,7 +469,10 @@ mod tests {
         let spec = GridSpec::around(m.bounds(), 0.04);
         let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
         let near = dilate(&skin(solid.bits(), Backend::Serial), Backend::Serial);
-        let anchor = skin(solid.bits(), Backend::Serial).iter_ones().next().unwrap();
+        let anchor = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .next()
+            .unwrap();
         let radii = [8.0, 16.0, 24.0, 32.0];
         let verifier = Verifier::new(&solid, anchor, Vec3::ZERO, &radii, 0.3, Backend::Serial);
         let v = anchor.map(|c| c as i64);

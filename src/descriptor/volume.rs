@@ -631,7 +631,10 @@ mod tests {
         let m = crate::mesh::io::load(&bytes, None).unwrap();
         let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
         let solid = Solid::new(voxelize(&m, &spec, Backend::Parallel));
-        let skin: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().step_by(37).collect();
+        let skin: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .step_by(37)
+            .collect();
         for r in [13.0, 26.0, 41.0, 70.0] {
             let coarse = Ball::new(r).bind(&solid, Backend::Serial);
             assert!(coarse.level() > 0);
@@ -675,7 +678,10 @@ mod tests {
         let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
         let spec = GridSpec::for_scene(m.bounds(), 90).unwrap();
         let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
-        let mut points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().step_by(7).collect();
+        let mut points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .step_by(7)
+            .collect();
         points.extend([[0, 0, 0], [45, 45, 45], [2, 47, 88]]);
         for r in [10.0, 20.0, 40.0] {
             let unbound = Ball::new(r);
