@@ -239,7 +239,7 @@ impl Timings {
         timings
     }
 
-    /// Recomputes `total` from the parts.
+    /// Recomputes `total` from the parts, less the time two of them shared.
     pub fn sum(&mut self) {
         self.total =
             self.load + self.voxelize + self.surface + self.template + self.match_ + self.group
