@@ -431,6 +431,7 @@ pub fn search(
     let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
     let verifier = Verifier::new(
         tsolid,
+        template.skin(scene),
         tvoxel,
         template.center_offset(scene),
         &radii_voxels,

@@ -46,8 +46,15 @@ pub struct Template {
     center: Vec3,
     radius: f64,
     radii: Vec<f64>,
-    own_solid: Option<Solid>,
+    /// A separate model's own voxels; a selection reads the scene's.
+    own: Option<OwnVoxels>,
     voxel: [u16; 3],
+}
+
+/// A template model's solid and its skin voxels (z, y, x order).
+struct OwnVoxels {
+    solid: Solid,
+    skin: Vec<[u16; 3]>,
 }
 
 impl Template {
@@ -61,7 +68,7 @@ impl Template {
     ) -> Result<Template> {
         check_layers(layers)?;
         let voxel_size = scene.voxel_size();
-        let (center, radius, own_solid, voxel) = match source {
+        let (center, radius, own, voxel) = match source {
             TemplateSource::Model(mesh) => {
                 // Each vertex once, whatever the number of triangles using it.
                 let mut is_used = vec![false; mesh.positions().len()];
@@ -85,7 +92,11 @@ impl Template {
                     nearest_voxel(&spec, &skin, sphere.center).expect("a voxelized mesh has skin");
                 let center = mesh.closest_point(spec.center(voxel)).point;
                 let radius = used.iter().map(|p| p.dist(center)).fold(0.0, f64::max);
-                (center, radius, Some(Solid::new(grid)), voxel)
+                let own = OwnVoxels {
+                    solid: Solid::new(grid),
+                    skin,
+                };
+                (center, radius, Some(own), voxel)
             }
             &TemplateSource::Selection { center, radius } => {
                 let snapped = snap_selection(scene, center, radius)?;
@@ -105,7 +116,7 @@ impl Template {
             center,
             radius,
             radii: evenly_spaced(radius, layers),
-            own_solid,
+            own,
             voxel,
         })
     }
@@ -127,7 +138,12 @@ impl Template {
 
     /// The solid the template's descriptors are read from.
     pub fn solid<'a>(&'a self, scene: &'a Scene) -> &'a Solid {
-        self.own_solid.as_ref().unwrap_or(scene.solid())
+        self.own.as_ref().map_or(scene.solid(), |own| &own.solid)
+    }
+
+    /// The skin voxels of [`Template::solid`].
+    pub fn skin<'a>(&'a self, scene: &'a Scene) -> &'a [[u16; 3]] {
+        self.own.as_ref().map_or(scene.skin(), |own| &own.skin)
     }
 
     /// The voxel the template's descriptors are computed at.

@@ -42,7 +42,7 @@
 use crate::descriptor::volume::Ball;
 use crate::exec::Backend;
 use crate::math::{Vec3, symmetric_eigen};
-use crate::voxel::{Grid, Solid, level_for_radius, skin};
+use crate::voxel::{Grid, Solid, level_for_radius};
 
 /// Surface samples taken from the template.
 const SAMPLES: usize = 4096;
@@ -107,22 +107,27 @@ impl Placement {
 
 impl Verifier {
     /// Prepares the template whose descriptors are taken at voxel `anchor` of
-    /// `solid`; `target` is c_T relative to the anchor's centre and `radii`
-    /// the layer radii, all in voxels (the last is the template's extent).
-    /// Up to `max_hidden` of its surface may land inside the scene's solid.
+    /// `solid`, whose skin voxels are `skin`; `target` is c_T relative to the
+    /// anchor's centre and `radii` the layer radii, all in voxels (the last
+    /// is the template's extent). Up to `max_hidden` of its surface may land
+    /// inside the scene's solid.
     pub fn new(
         solid: &Solid,
+        skin: &[[u16; 3]],
         anchor: [u16; 3],
         target: Vec3,
         radii: &[f64],
         max_hidden: f64,
         backend: Backend,
     ) -> Verifier {
+        // Frames are read block by block, run by run: the balls need no
+        // binding, only their levels.
         let balls: Vec<Ball> = radii
             .iter()
             .map(|&r| {
-                Ball::build(r, level_for_radius(r, MOMENT_BLOCKS).max(1), backend)
-                    .bind(solid, backend)
+                let ball = Ball::build(r, level_for_radius(r, MOMENT_BLOCKS).max(1), backend);
+                solid.level(ball.level(), backend);
+                ball
             })
             .collect();
         let frames = balls
@@ -130,10 +135,9 @@ impl Verifier {
             .map(|b| local_frame(b, solid, anchor))
             .collect();
         let radius = *radii.last().expect("at least one layer");
-        let bits = solid.bits();
         let a = anchor.map(|c| c as i64);
-        let surface_pts: Vec<Vec3> = skin(bits, backend)
-            .iter_ones()
+        let surface_pts: Vec<Vec3> = skin
+            .iter()
             .map(|s| {
                 Vec3::new(
                     (s[0] as i64 - a[0]) as f64,
@@ -457,7 +461,7 @@ fn spread<T: Copy>(items: Vec<T>) -> Vec<T> {
 mod tests {
     use super::*;
     use crate::mesh::shapes::{cuboid, uv_sphere};
-    use crate::voxel::{GridSpec, dilate, voxelize};
+    use crate::voxel::{GridSpec, dilate, skin, voxelize};
 
     #[test]
     fn stopping_a_losing_pose_early_decides_as_the_full_count() {
@@ -469,12 +473,18 @@ mod tests {
         let spec = GridSpec::around(m.bounds(), 0.04);
         let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
         let near = dilate(&skin(solid.bits(), Backend::Serial), Backend::Serial);
-        let anchor = skin(solid.bits(), Backend::Serial)
-            .iter_ones()
-            .next()
-            .unwrap();
+        let surface: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
+        let anchor = surface[0];
         let radii = [8.0, 16.0, 24.0, 32.0];
-        let verifier = Verifier::new(&solid, anchor, Vec3::ZERO, &radii, 0.3, Backend::Serial);
+        let verifier = Verifier::new(
+            &solid,
+            &surface,
+            anchor,
+            Vec3::ZERO,
+            &radii,
+            0.3,
+            Backend::Serial,
+        );
         let v = anchor.map(|c| c as i64);
         let identity = Pose {
             rows: [
