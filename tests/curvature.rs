@@ -1,6 +1,7 @@
 //! The curvature descriptor on the shared scenes, with default parameters:
 //! every instance found, nothing else reported (scored like evaluate.py),
-//! and the same instances from the serial and the parallel backend.
+//! the same instances from the serial and the parallel backend, and from
+//! the sampled first pass as from every vertex.
 
 mod common;
 
@@ -18,8 +19,15 @@ fn assert_finds_everything(name: &str, select: bool) {
     let report = run_with(name, select, &curvature());
     common::assert_finds_everything(name, select, &report);
     assert!(report.grid.is_none(), "a curvature search needs no voxels");
+    // A pass over one vertex per cell, then every vertex near its survivors.
     let stages: Vec<&str> = report.stages.iter().map(|s| s.descriptor).collect();
-    assert_eq!(stages, vec!["curvature"; 6]);
+    let expected: Vec<&str> = [["curvature-sample"; 6], ["curvature"; 6]].concat();
+    assert_eq!(stages, expected);
+    let (sample, every) = report.stages.split_at(6);
+    let vertices = report.surface.as_ref().unwrap().vertices;
+    for pass in [sample, every] {
+        assert!(pass[0].candidates * 2 < vertices, "{:?}", report.stages);
+    }
 }
 
 #[test]
@@ -63,4 +71,30 @@ fn serial_and_parallel_agree() {
             .collect::<Vec<_>>()
     };
     assert_eq!(counts(&a), counts(&b));
+}
+
+#[test]
+fn the_sampled_pass_finds_what_every_vertex_finds() {
+    // Every vertex a candidate: the paper's schema on the whole mesh.
+    let mut every = curvature();
+    every.curvature_spacing = 0.0;
+    for (name, select) in [("twisted-homer", false), ("select-cow-head", true)] {
+        let a = run_with(name, select, &every);
+        let b = run_with(name, select, &curvature());
+        assert_eq!(a.stages.len(), 6, "one pass over every vertex");
+        // A survivor far from every sample survivor can be missed, which
+        // lowers an instance's support; the best points are the same.
+        let found = |r: &fast_reject::search::MatchReport| {
+            r.instances
+                .iter()
+                .map(|i| (i.position, i.distance))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(found(&a), found(&b), "{name}");
+        let first = |r: &fast_reject::search::MatchReport| r.stages[0].candidates;
+        assert!(
+            first(&b) * 3 < first(&a),
+            "{name}: the sample is not sparse"
+        );
+    }
 }

@@ -197,6 +197,12 @@ fn a_selection_sphere_that_touches_no_surface_is_an_error() {
     curvature.descriptor = fast_reject::search::DescriptorKind::Curvature;
     let e = search(&scene, &far, &curvature, &mut ()).unwrap_err();
     assert!(matches!(e, Error::SelectionMissesScene { .. }), "{e}");
+    for spacing in [-0.5, f64::NAN, f64::INFINITY] {
+        let mut bad = curvature;
+        bad.curvature_spacing = spacing;
+        let e = search(&scene, &inside, &bad, &mut ()).unwrap_err();
+        assert!(e.to_string().contains("curvature spacing"), "{e}");
+    }
     curvature.curvature_threshold = f64::NAN;
     let e = search(&scene, &inside, &curvature, &mut ()).unwrap_err();
     assert!(matches!(e, Error::InvalidOption { .. }), "{e}");

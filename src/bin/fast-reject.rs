@@ -66,6 +66,11 @@ struct MatchArgs {
     /// curvatures scaled by r_k^2).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_threshold)]
     curvature_threshold: f64,
+    /// Curvature: a first pass on one vertex per grid cell of this side (a
+    /// fraction of the innermost radius), then every vertex near its
+    /// survivors; 0 makes every vertex a candidate of a single pass.
+    #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_spacing)]
+    curvature_spacing: f64,
     /// Verification: least share of the template's visible surface that must
     /// lie on the scene's surface (0..1).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.verify_threshold)]
@@ -107,6 +112,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     options.volume_threshold = args.volume_threshold;
     options.harmonics_threshold = args.harmonics_threshold;
     options.curvature_threshold = args.curvature_threshold;
+    options.curvature_spacing = args.curvature_spacing;
     options.verify_threshold = args.verify_threshold;
     options.clutter.hidden_surface = args.hidden_surface;
     options.backend = backend;

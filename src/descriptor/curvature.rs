@@ -28,6 +28,7 @@ use crate::mesh::{clip_triangle_to_ball, closest_point_on_triangle};
 
 /// The curvature descriptor of a scene's surface against a template's.
 pub struct CurvatureDescriptor<'a> {
+    name: &'static str,
     surface: &'a Surface,
     radii: Vec<f64>,
     /// The template's layers, scaled.
@@ -91,12 +92,19 @@ impl<'a> CurvatureDescriptor<'a> {
         let outer = radii.last().copied().unwrap_or(1.0);
         let scale = outer * outer;
         CurvatureDescriptor {
+            name: "curvature",
             surface,
             radii: radii.to_vec(),
             template: template.iter().map(|g| g * scale).collect(),
             scale,
             threshold,
         }
+    }
+
+    /// The same descriptor reported under another stage name (a pass over
+    /// a sample of the vertices, say).
+    pub fn named(self, name: &'static str) -> CurvatureDescriptor<'a> {
+        CurvatureDescriptor { name, ..self }
     }
 
     /// The Gaussian curvature of `surface` at vertex `v` for every radius:
@@ -137,7 +145,7 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
     type State = CurvatureState;
 
     fn name(&self) -> &'static str {
-        "curvature"
+        self.name
     }
 
     fn layers(&self) -> usize {

@@ -12,12 +12,13 @@ use crate::scene::SceneOptions;
 use crate::search::{DescriptorKind, MatchOptions};
 
 /// The option names `match` accepts (the CLI's flags, in camelCase).
-const MATCH_KEYS: [&str; 9] = [
+const MATCH_KEYS: [&str; 10] = [
     "descriptor",
     "resolution",
     "layers",
     "volumeThreshold",
     "curvatureThreshold",
+    "curvatureSpacing",
     "harmonicsThreshold",
     "verifyThreshold",
     "hiddenSurface",
@@ -119,6 +120,9 @@ impl MatchSettings {
         }
         if let Some(v) = number(object, "curvatureThreshold")? {
             options.curvature_threshold = v;
+        }
+        if let Some(v) = number(object, "curvatureSpacing")? {
+            options.curvature_spacing = v;
         }
         if let Some(v) = number(object, "verifyThreshold")? {
             options.verify_threshold = v;

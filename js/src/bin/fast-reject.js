@@ -4,7 +4,7 @@
 //   fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
 //               [--descriptor D] [--resolution N] [--threads N] [--layers K]
 //               [--volume-threshold T] [--harmonics-threshold T]
-//               [--curvature-threshold T]
+//               [--curvature-threshold T] [--curvature-spacing F]
 //               [--verify-threshold T] [--hidden-surface T] [--json]
 //   fast-reject demo [--json]     the demo scene and template shipped in demo/
 import { readFile } from 'node:fs/promises';
@@ -18,6 +18,7 @@ const USAGE = `usage: fast-reject match SCENE (--template FILE | --select X,Y,Z,
                    [--descriptor volume+harmonics|volume|harmonics|curvature] [--resolution N]
                    [--threads N] [--layers K] [--volume-threshold T]
                    [--harmonics-threshold T] [--curvature-threshold T]
+                   [--curvature-spacing F]
                    [--verify-threshold T] [--hidden-surface T] [--json]
        fast-reject demo [--json]`;
 
@@ -27,6 +28,7 @@ const NUMERIC_FLAGS = {
   'volume-threshold': 'volumeThreshold',
   'harmonics-threshold': 'harmonicsThreshold',
   'curvature-threshold': 'curvatureThreshold',
+  'curvature-spacing': 'curvatureSpacing',
   'verify-threshold': 'verifyThreshold',
   'hidden-surface': 'hiddenSurface',
 };
