@@ -104,24 +104,27 @@ fn stage_table(summary: &[(&str, MatchReport)], curvature: bool) {
     }
 }
 
-/// Microseconds per candidate for each layer: how the cost grows with the radius.
+/// Microseconds per candidate for each layer of each pass (the sample
+/// pass and the final one): how the cost grows with the radius.
 fn per_candidate_table(summary: &[(&str, MatchReport)]) {
     let layers = summary
         .iter()
-        .map(|(_, r)| r.stages.len())
+        .flat_map(|(_, r)| r.stages.iter().map(|s| s.layer))
         .max()
         .unwrap_or(0);
-    print!("\n| scene (us per candidate) |");
+    print!("\n| scene (us per candidate) | pass |");
     for l in 1..=layers {
         print!(" layer {l} |");
     }
-    println!("\n|---|{}", "---:|".repeat(layers));
+    println!("\n|---|---|{}", "---:|".repeat(layers));
     for (name, r) in summary {
-        print!("| {name} |");
-        for s in &r.stages {
-            print!(" {:.0} |", 1000.0 * s.ms / s.candidates.max(1) as f64);
+        for pass in r.stages.chunk_by(|a, b| a.descriptor == b.descriptor) {
+            print!("| {name} | {} |", pass[0].descriptor);
+            for s in pass {
+                print!(" {:.0} |", 1000.0 * s.ms / s.candidates.max(1) as f64);
+            }
+            println!();
         }
-        println!();
     }
 }
 
