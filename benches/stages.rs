@@ -8,7 +8,8 @@
 //! `../shared/scenes`; the default parameters are used throughout.
 //! `FAST_REJECT_BENCH_DESCRIPTOR=curvature` measures the curvature
 //! descriptor instead of volume+harmonics, with the cost per candidate of
-//! every layer (how it grows with the radius).
+//! every layer (how it grows with the radius);
+//! `FAST_REJECT_BENCH_CURVATURE_SPACING=0.5` adds its sampled first pass.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -46,13 +47,17 @@ fn main() {
     if let Ok(name) = std::env::var("FAST_REJECT_BENCH_DESCRIPTOR") {
         options.descriptor = name.parse().expect("a descriptor name");
     }
+    if let Ok(spacing) = std::env::var("FAST_REJECT_BENCH_CURVATURE_SPACING") {
+        options.curvature_spacing = spacing.parse().expect("a number");
+    }
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
     println!(
-        "descriptor: {}, threads: {}, runs per scene: {runs} (fastest shown)\n",
+        "descriptor: {}, curvature spacing: {}, threads: {}, runs per scene: {runs} (fastest shown)\n",
         options.descriptor,
+        options.curvature_spacing,
         rayon::current_num_threads()
     );
     let mut summary = Vec::new();

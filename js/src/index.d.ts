@@ -53,7 +53,7 @@ export interface MatchOptions {
   harmonicsThreshold?: number;
   /** Curvature threshold on the r_k^2-scaled squared differences (default 2.5). */
   curvatureThreshold?: number;
-  /** Curvature: one vertex per grid cell of this side (a share of r_1) in a first, looser pass; every vertex near its survivors in the final one. 0: every vertex in one pass (default 0.5). */
+  /** Curvature: 0 (default) makes every vertex a candidate; a positive value is a grid cell's side (a share of r_1) for a faster first pass over one vertex per cell, which can miss an occurrence. */
   curvatureSpacing?: number;
   /** Least share of the template's surface that must land on the scene (default 0.85). */
   verifyThreshold?: number;

@@ -66,9 +66,10 @@ struct MatchArgs {
     /// curvatures scaled by r_k^2).
     #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_threshold)]
     curvature_threshold: f64,
-    /// Curvature: a first pass on one vertex per grid cell of this side (a
-    /// fraction of the innermost radius), then every vertex near its
-    /// survivors; 0 makes every vertex a candidate of a single pass.
+    /// Curvature: 0 makes every vertex a candidate; a positive value runs a
+    /// first pass on one vertex per grid cell of this side (a fraction of
+    /// the innermost radius), then every vertex near its survivors: several
+    /// times faster, but it can miss an occurrence.
     #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_spacing)]
     curvature_spacing: f64,
     /// Verification: least share of the template's visible surface that must

@@ -284,8 +284,7 @@ async function runSearch() {
   if (state.running) cancelSearch();
   const generation = ++state.generation;
   const options = searchOptions();
-  // Curvature: a pass over a sample of the vertices, then the final one.
-  const stageCount = ['volume+harmonics', 'curvature'].includes(options.descriptor) ? 2 : 1;
+  const stageCount = options.descriptor === 'volume+harmonics' ? 2 : 1;
   const expectedLayers = 6 * stageCount;
   const layers = [];
   state.running = true;
