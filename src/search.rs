@@ -619,7 +619,7 @@ impl VertexSample {
     fn of(surface: &Surface, spacing: f64) -> Option<VertexSample> {
         let grid = VertexGrid::new(surface, spacing)?;
         let vertices = grid.sample(surface);
-        (vertices.len() * 2 <= grid.len()).then_some(VertexSample { grid, vertices })
+        (vertices.len() * 2 <= grid.vertex_count()).then_some(VertexSample { grid, vertices })
     }
 }
 

@@ -6,7 +6,7 @@
 //! vertex near what survived it.
 
 use super::surface::Surface;
-use crate::math::Vec3;
+use crate::math::{Aabb, Vec3};
 
 /// Cells along each axis are numbered in 21 bits, packed into one key.
 const AXIS_BITS: u32 = 21;
@@ -28,22 +28,15 @@ impl VertexGrid {
             return None;
         }
         let used: Vec<u32> = surface.used_vertices().collect();
-        let mut origin = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        let mut far = Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for &v in &used {
-            let p = surface.position(v);
-            origin = origin.min(p);
-            far = far.max(p);
-        }
-        let span = (far - origin) * (1.0 / cell);
-        let limit = f64::from(1u32 << AXIS_BITS) - 2.0;
-        if used.is_empty() || span.max_element() >= limit {
+        let bounds = Aabb::around(used.iter().map(|&v| surface.position(v)))?;
+        let span = bounds.extent() * (1.0 / cell);
+        if span.max_element() >= f64::from(1u32 << AXIS_BITS) - 2.0 {
             return None;
         }
         let mut grid = VertexGrid {
             cell,
-            origin,
-            entries: Vec::with_capacity(used.len()),
+            origin: bounds.min,
+            entries: Vec::new(),
         };
         grid.entries = used
             .iter()
@@ -53,15 +46,9 @@ impl VertexGrid {
         Some(grid)
     }
 
-    /// How many vertices are binned.
-    pub fn len(&self) -> usize {
+    /// How many vertices are binned: the surface's used vertices.
+    pub fn vertex_count(&self) -> usize {
         self.entries.len()
-    }
-
-    /// Whether no vertex is binned (never: `new` refuses a surface without
-    /// used vertices).
-    pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
     }
 
     /// One vertex per occupied cell, the one nearest the cell's centre
