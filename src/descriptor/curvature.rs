@@ -277,6 +277,9 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
                 }
                 continue;
             }
+            // Not wholly inside this ball: its other triangles need not
+            // test it again.
+            walk.mixed[patch] = walk.current;
             let p = surface.corners(t);
             let inside = p.map(|q| (q - c).norm2() <= r2);
             let meets = inside.iter().any(|&x| x)
