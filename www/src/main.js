@@ -256,6 +256,7 @@ function searchOptions() {
     volumeThreshold: 'volume-threshold',
     harmonicsThreshold: 'harmonics-threshold',
     curvatureThreshold: 'curvature-threshold',
+    curvatureSpacing: 'curvature-spacing',
   };
   for (const [key, id] of Object.entries(thresholds)) {
     const value = Number($(id).value);
@@ -284,7 +285,10 @@ async function runSearch() {
   if (state.running) cancelSearch();
   const generation = ++state.generation;
   const options = searchOptions();
-  const stageCount = options.descriptor === 'volume+harmonics' ? 2 : 1;
+  // Two stages, or the curvature search's sampled pass and its final pass
+  // (a coarse mesh runs the final pass alone; the bar then fills at the end).
+  const sampled = options.descriptor === 'curvature' && options.curvatureSpacing > 0;
+  const stageCount = options.descriptor === 'volume+harmonics' || sampled ? 2 : 1;
   const expectedLayers = 6 * stageCount;
   const layers = [];
   state.running = true;
@@ -354,7 +358,7 @@ $('descriptor').addEventListener('change', () => {
   showThresholds();
   rerunSoon();
 });
-for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold']) {
+for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing']) {
   $(id).addEventListener('change', rerunSoon);
 }
 

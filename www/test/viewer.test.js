@@ -223,6 +223,48 @@ for (const isolation of [false, true]) {
   });
 }
 
+test('viewer: curvature on twisted-homer, over every vertex and with the sampled first pass', async () => {
+  const viewer = await openViewer({ isolation: true });
+  const { page } = viewer;
+  const twistedHomer = resolve(shared, 'scenes/twisted-homer');
+  try {
+    await waitForStatus(page, 'done');
+    await page.setInputFiles('#scene-input', resolve(twistedHomer, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    await page.selectOption('#descriptor', 'curvature');
+    assert.ok(await page.locator('#curvature-spacing').isVisible(), 'the sampling input shows with curvature');
+    await page.setInputFiles('#template-input', resolve(twistedHomer, 'template.glb'));
+    await waitForStatus(page, 'done');
+    const every = await page.evaluate(() => globalThis.viewer.report);
+    assertMatchesTruth(every, await truth(twistedHomer), 'twisted-homer, every vertex');
+    assert.deepEqual(
+      every.stages.map((s) => s.descriptor),
+      Array(6).fill('curvature'),
+    );
+
+    // Sampling re-runs the search as two passes, with the same matches.
+    await page.fill('#curvature-spacing', '0.5');
+    await page.locator('#curvature-spacing').dispatchEvent('change');
+    await page.waitForFunction(() => globalThis.viewer.status === 'done' && globalThis.viewer.report?.stages.length === 12, null, {
+      timeout: 120_000,
+    });
+    const sampled = await page.evaluate(() => globalThis.viewer.report);
+    assert.deepEqual(
+      sampled.stages.map((s) => s.descriptor),
+      [...Array(6).fill('curvature-sample'), ...Array(6).fill('curvature')],
+    );
+    assert.deepEqual(
+      sampled.instances.map((i) => i.position),
+      every.instances.map((i) => i.position),
+    );
+    assert.equal(await page.locator('#layer-table tbody tr').count(), 12);
+    assert.equal(await page.evaluate(() => document.getElementById('progress-bar').value), 1);
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
+
 test('viewer: a broken or unsupported file gives a message and keeps the scene', async () => {
   const viewer = await openViewer({ isolation: false });
   const { page } = viewer;
