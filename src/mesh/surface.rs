@@ -56,6 +56,117 @@ impl Patches {
     const SIZE: usize = 16;
 }
 
+/// Where each triangle goes when patches are stored contiguously: built
+/// before the per-triangle arrays, so that those are laid out once.
+struct PatchLayout {
+    /// Old triangle id of each new one, patch after patch.
+    order: Vec<u32>,
+    new_of_old: Vec<u32>,
+    /// Patch p holds new ids `start[p]..start[p + 1]`.
+    start: Vec<u32>,
+}
+
+impl PatchLayout {
+    /// Grows patches breadth-first from each free triangle in the current
+    /// (Morton) order, over `neighbours`.
+    fn new<'n>(n: usize, neighbours: impl Fn(u32) -> &'n [u32]) -> PatchLayout {
+        let mut claimed = vec![false; n];
+        let mut order: Vec<u32> = Vec::with_capacity(n);
+        let mut start = vec![0u32];
+        let mut queue = std::collections::VecDeque::new();
+        for seed in 0..n as u32 {
+            if claimed[seed as usize] {
+                continue;
+            }
+            let first = order.len();
+            claimed[seed as usize] = true;
+            queue.clear();
+            queue.push_back(seed);
+            while let Some(t) = queue.pop_front() {
+                order.push(t);
+                if order.len() - first == Patches::SIZE {
+                    break;
+                }
+                for &u in neighbours(t) {
+                    if !claimed[u as usize] && order.len() - first + queue.len() < Patches::SIZE {
+                        claimed[u as usize] = true;
+                        queue.push_back(u);
+                    }
+                }
+            }
+            // Claimed but not reached (the patch filled up): free again.
+            for t in queue.drain(..) {
+                claimed[t as usize] = false;
+            }
+            start.push(order.len() as u32);
+        }
+        let mut new_of_old = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        PatchLayout {
+            order,
+            new_of_old,
+            start,
+        }
+    }
+
+    /// Each patch's bounds, area and border, from `surface`, whose
+    /// triangles are already in this layout's order.
+    fn summarize(self, surface: &Surface) -> Patches {
+        let count = self.start.len() - 1;
+        let mut of_triangle = vec![0u32; surface.triangles.len()];
+        for (p, w) in self.start.windows(2).enumerate() {
+            of_triangle[w[0] as usize..w[1] as usize].fill(p as u32);
+        }
+        let mut patches = Patches {
+            of_triangle,
+            area: Vec::with_capacity(count),
+            moment: Vec::with_capacity(count),
+            centre: Vec::with_capacity(count),
+            radius: Vec::with_capacity(count),
+            border_start: vec![0],
+            border: Vec::new(),
+            start: self.start,
+        };
+        let mut border = Vec::new();
+        for p in 0..count {
+            let range = patches.start[p] as usize..patches.start[p + 1] as usize;
+            let corners = &surface.corners[range.clone()];
+            let centre = corners.iter().flatten().fold(Vec3::ZERO, |a, &q| a + q)
+                * (1.0 / (3 * corners.len()) as f64);
+            patches.centre.push(centre);
+            patches.radius.push(
+                corners
+                    .iter()
+                    .flatten()
+                    .map(|q| q.dist(centre))
+                    .fold(0.0, f64::max),
+            );
+            let mut area = 0.0;
+            let mut moment = Vec3::ZERO;
+            for t in range.clone() {
+                let c = surface.corners[t];
+                area += surface.areas[t];
+                moment += (c[0] + c[1] + c[2]) * (surface.areas[t] / 3.0);
+            }
+            patches.area.push(area);
+            patches.moment.push(moment);
+            border.clear();
+            border.extend(
+                range
+                    .flat_map(|t| surface.neighbours(t as u32).iter().copied())
+                    .filter(|&u| patches.of_triangle[u as usize] != p as u32),
+            );
+            border.sort_unstable();
+            border.dedup();
+            patches.border.extend_from_slice(&border);
+            patches.border_start.push(patches.border.len() as u32);
+        }
+        patches
+    }
+}
+
 /// An edge of the welded mesh.
 #[derive(Clone, Copy, Debug)]
 pub struct Edge {
@@ -161,15 +272,10 @@ impl Surface {
             .collect();
         let (_, sorted) = compressed(count, &by_lowest);
         let triangles: Vec<[u32; 3]> = sorted.iter().map(|&i| triangles[i as usize]).collect();
-        let corners: Vec<[Vec3; 3]> = triangles
-            .iter()
-            .map(|t| t.map(|v| positions[v as usize]))
-            .collect();
-        let face_normal = |p: &[Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
-        let areas = corners
-            .iter()
-            .map(|p| 0.5 * face_normal(p).norm())
-            .collect();
+        let face_normal = |t: usize| {
+            let p = triangles[t].map(|v| positions[v as usize]);
+            (p[1] - p[0]).cross(p[2] - p[0])
+        };
         // Half-edges sorted by their undirected key: equal keys are one edge.
         // Bucketed by the lower end (a counting sort), then each small
         // bucket sorted by the higher end.
@@ -184,6 +290,7 @@ impl Surface {
             })
             .collect();
         let (bucket_start, by_lower) = compressed(count, &lower_ends);
+        drop(lower_ends);
         let mut half: Vec<(u64, u32, bool)> = by_lower
             .iter()
             .map(|&h| {
@@ -191,6 +298,7 @@ impl Surface {
                 (((a.min(b) as u64) << 32) | a.max(b) as u64, h, a < b)
             })
             .collect();
+        drop(by_lower);
         for w in bucket_start.windows(2) {
             half[w[0] as usize..w[1] as usize].sort_unstable_by_key(|h| (h.0, h.1));
         }
@@ -214,7 +322,7 @@ impl Surface {
             let (angle, normal) = match run {
                 &[(_, h1, forward1), (_, h2, forward2)] if h1 / 3 != h2 / 3 => {
                     let (t1, t2) = ((h1 / 3) as usize, (h2 / 3) as usize);
-                    let (n1, mut n2) = (face_normal(&corners[t1]), face_normal(&corners[t2]));
+                    let (n1, mut n2) = (face_normal(t1), face_normal(t2));
                     // Consistently oriented neighbours walk the edge in
                     // opposite directions; if not, one is flipped.
                     if forward1 == forward2 {
@@ -249,7 +357,32 @@ impl Surface {
                 normal,
             });
         }
+        drop(half);
         let (neighbour_start, neighbour_list) = compressed(triangles.len(), &neighbours);
+        drop(neighbours);
+        // The patches come first, so that every per-triangle array is built
+        // once, already in patch order.
+        let layout = PatchLayout::new(triangles.len(), |t| {
+            &neighbour_list
+                [neighbour_start[t as usize] as usize..neighbour_start[t as usize + 1] as usize]
+        });
+        let (order, new_of_old) = (&layout.order, &layout.new_of_old);
+        let mut new_start = Vec::with_capacity(triangles.len() + 1);
+        new_start.push(0u32);
+        let mut new_list = Vec::with_capacity(neighbour_list.len());
+        for &old in order {
+            let (a, b) = (
+                neighbour_start[old as usize] as usize,
+                neighbour_start[old as usize + 1] as usize,
+            );
+            new_list.extend(neighbour_list[a..b].iter().map(|&u| new_of_old[u as usize]));
+            new_start.push(new_list.len() as u32);
+        }
+        drop((neighbour_start, neighbour_list));
+        let owned: Vec<(u32, u32)> = owned
+            .into_iter()
+            .map(|(t, half)| (new_of_old[t as usize], half))
+            .collect();
         let (curved_start, owned_halves) = compressed(triangles.len(), &owned);
         let curved = owned_halves
             .iter()
@@ -270,146 +403,40 @@ impl Surface {
                 }
             })
             .collect();
+        // Each vertex's triangles in the sorted order, as ids in patch order.
         let at_vertex: Vec<(u32, u32)> = triangles
             .iter()
             .enumerate()
-            .flat_map(|(ti, t)| t.map(|v| (v, ti as u32)))
+            .flat_map(|(ti, t)| t.map(|v| (v, new_of_old[ti])))
             .collect();
         let (vertex_start, vertex_triangles) = compressed(count, &at_vertex);
-        Surface {
+        drop(at_vertex);
+        let triangles: Vec<[u32; 3]> = order.iter().map(|&t| triangles[t as usize]).collect();
+        let triangle_edges = order.iter().map(|&t| triangle_edges[t as usize]).collect();
+        let corners: Vec<[Vec3; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|v| positions[v as usize]))
+            .collect();
+        let areas = corners
+            .iter()
+            .map(|p| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm())
+            .collect();
+        let mut surface = Surface {
             positions,
             triangles,
             corners,
             areas,
             triangle_edges,
             edges,
-            neighbour_start,
-            neighbour_list,
+            neighbour_start: new_start,
+            neighbour_list: new_list,
             curved_start,
             curved,
             vertex_start,
             vertex_triangles,
             patches: Patches::default(),
-        }
-        .with_patches()
-    }
-
-    /// Groups the triangles into connected patches (breadth-first from each
-    /// free triangle in Morton order) and stores them patch by patch.
-    fn with_patches(self) -> Surface {
-        let n = self.triangles.len();
-        let mut patch_of = vec![u32::MAX; n];
-        let mut order: Vec<u32> = Vec::with_capacity(n);
-        let mut start = vec![0u32];
-        let mut queue = std::collections::VecDeque::new();
-        for seed in 0..n as u32 {
-            if patch_of[seed as usize] != u32::MAX {
-                continue;
-            }
-            let p = start.len() as u32 - 1;
-            let first = order.len();
-            patch_of[seed as usize] = p;
-            queue.clear();
-            queue.push_back(seed);
-            while let Some(t) = queue.pop_front() {
-                order.push(t);
-                if order.len() - first == Patches::SIZE {
-                    break;
-                }
-                for &u in self.neighbours(t) {
-                    if patch_of[u as usize] == u32::MAX
-                        && order.len() - first + queue.len() < Patches::SIZE
-                    {
-                        patch_of[u as usize] = p;
-                        queue.push_back(u);
-                    }
-                }
-            }
-            // Claimed but not reached (the patch filled up): free again.
-            for t in queue.drain(..) {
-                patch_of[t as usize] = u32::MAX;
-            }
-            start.push(order.len() as u32);
-        }
-        let mut new_of_old = vec![0u32; n];
-        for (new, &old) in order.iter().enumerate() {
-            new_of_old[old as usize] = new as u32;
-        }
-        let old = |new: usize| order[new] as usize;
-        let mut neighbour_start = vec![0u32];
-        let mut neighbour_list = Vec::with_capacity(self.neighbour_list.len());
-        let mut curved_start = vec![0u32];
-        let mut curved = Vec::with_capacity(self.curved.len());
-        for new in 0..n {
-            let t = old(new) as u32;
-            neighbour_list.extend(self.neighbours(t).iter().map(|&u| new_of_old[u as usize]));
-            neighbour_start.push(neighbour_list.len() as u32);
-            curved.extend_from_slice(self.curved_edges(t));
-            curved_start.push(curved.len() as u32);
-        }
-        let of_triangle: Vec<u32> = (0..n).map(|new| patch_of[old(new)]).collect();
-        let mut surface = Surface {
-            triangles: (0..n).map(|i| self.triangles[old(i)]).collect(),
-            corners: (0..n).map(|i| self.corners[old(i)]).collect(),
-            areas: (0..n).map(|i| self.areas[old(i)]).collect(),
-            triangle_edges: (0..n).map(|i| self.triangle_edges[old(i)]).collect(),
-            vertex_triangles: self
-                .vertex_triangles
-                .iter()
-                .map(|&t| new_of_old[t as usize])
-                .collect(),
-            neighbour_start,
-            neighbour_list,
-            curved_start,
-            curved,
-            positions: self.positions,
-            edges: self.edges,
-            vertex_start: self.vertex_start,
-            patches: Patches::default(),
         };
-        let count = start.len() - 1;
-        let mut patches = Patches {
-            of_triangle,
-            area: Vec::with_capacity(count),
-            moment: Vec::with_capacity(count),
-            centre: Vec::with_capacity(count),
-            radius: Vec::with_capacity(count),
-            border_start: vec![0],
-            border: Vec::new(),
-            start,
-        };
-        for p in 0..count {
-            let range = patches.start[p] as usize..patches.start[p + 1] as usize;
-            let corners = &surface.corners[range.clone()];
-            let centre = corners.iter().flatten().fold(Vec3::ZERO, |a, &q| a + q)
-                * (1.0 / (3 * corners.len()) as f64);
-            patches.centre.push(centre);
-            patches.radius.push(
-                corners
-                    .iter()
-                    .flatten()
-                    .map(|q| q.dist(centre))
-                    .fold(0.0, f64::max),
-            );
-            let mut area = 0.0;
-            let mut moment = Vec3::ZERO;
-            for t in range.clone() {
-                let c = surface.corners[t];
-                area += surface.areas[t];
-                moment += (c[0] + c[1] + c[2]) * (surface.areas[t] / 3.0);
-            }
-            patches.area.push(area);
-            patches.moment.push(moment);
-            let mut border: Vec<u32> = range
-                .flat_map(|t| surface.neighbours(t as u32).iter().copied())
-                .filter(|&u| patches.of_triangle[u as usize] != p as u32)
-                .collect();
-            border.sort_unstable();
-            border.dedup();
-            patches.border.extend(border);
-            patches.border_start.push(patches.border.len() as u32);
-        }
-        surface.patches = patches;
+        surface.patches = layout.summarize(&surface);
         surface
     }
 
