@@ -4,6 +4,9 @@
 //! vertex there, whatever the turning of the scene.
 //!
 //! cargo run --release --example sample_slack -- SCENE [--select] [RHO...]
+//!
+//! RHO is the cover radius in units of r_1; the scenes come from
+//! `../shared/scenes`.
 
 use fast_reject::descriptor::OnionDescriptor;
 use fast_reject::descriptor::curvature::CurvatureDescriptor;
@@ -36,8 +39,12 @@ fn main() {
     let name = &args[0];
     let select = args.iter().any(|a| a == "--select");
     let rhos: Vec<f64> = args[1..].iter().filter_map(|a| a.parse().ok()).collect();
-    let dir = std::path::PathBuf::from("../shared/scenes").join(name);
-    let mesh = load(&std::fs::read(dir.join("scene.glb")).unwrap(), None).unwrap();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes")
+        .join(name);
+    let bytes = std::fs::read(dir.join("scene.glb"))
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.join("scene.glb").display()));
+    let mesh = load(&bytes, None).unwrap();
     let scene = Scene::new(mesh, &SceneOptions::DEFAULT).unwrap();
     let source = if select {
         let t: serde_json::Value =
