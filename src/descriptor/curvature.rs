@@ -174,8 +174,9 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
 
 /// Per-thread scratch for the neighbourhood walk: a mark per triangle
 /// (equal to `current` when seen in this walk), per patch whether it was
-/// taken whole or has triangles counted one by one, and the walk's queue.
-/// Marks are generations, so a walk never clears the arrays.
+/// taken whole or cannot be (some of its triangles are counted one by one,
+/// or it does not fit in the ball), and the walk's queue. Marks are
+/// generations, so a walk never clears the arrays.
 #[derive(Default)]
 struct Walk {
     marks: Vec<u32>,
