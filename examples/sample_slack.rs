@@ -8,14 +8,16 @@
 //! RHO is the cover radius in units of r_1; the scenes come from
 //! `../shared/scenes`.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use fast_reject::descriptor::OnionDescriptor;
 use fast_reject::descriptor::curvature::CurvatureDescriptor;
 use fast_reject::mesh::VertexGrid;
-use fast_reject::mesh::io::load;
 use fast_reject::mesh::surface::Surface;
-use fast_reject::scene::{Scene, SceneOptions};
+use fast_reject::scene::SceneOptions;
 use fast_reject::search::MatchOptions;
-use fast_reject::template::{SurfaceTemplate, TemplateSource};
+use fast_reject::template::SurfaceTemplate;
 use rayon::prelude::*;
 
 /// A covering sample, taken greedily in vertex order: every vertex within
@@ -39,26 +41,10 @@ fn main() {
     let name = &args[0];
     let select = args.iter().any(|a| a == "--select");
     let rhos: Vec<f64> = args[1..].iter().filter_map(|a| a.parse().ok()).collect();
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes")
-        .join(name);
-    let bytes = std::fs::read(dir.join("scene.glb"))
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.join("scene.glb").display()));
-    let mesh = load(&bytes, None).unwrap();
-    let scene = Scene::new(mesh, &SceneOptions::DEFAULT).unwrap();
-    let source = if select {
-        let t: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.join("truth.json")).unwrap()).unwrap();
-        let s = &t["select"];
-        TemplateSource::Selection {
-            center: [0, 1, 2].map(|i| s["center"][i].as_f64().unwrap()),
-            radius: s["radius"].as_f64().unwrap(),
-        }
-    } else {
-        TemplateSource::Model(
-            load(&std::fs::read(dir.join("template.glb")).unwrap(), None).unwrap(),
-        )
-    };
+    // The integration tests' loaders: the same scene, template and
+    // selection sphere as tests/curvature.rs.
+    let scene = common::scene(name, &SceneOptions::DEFAULT);
+    let source = common::template(name, select);
     let options = MatchOptions::DEFAULT;
     let template = SurfaceTemplate::new(&source, &scene, options.layers).unwrap();
     let radii = template.radii().to_vec();
