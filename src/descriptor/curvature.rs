@@ -24,7 +24,7 @@
 use super::OnionDescriptor;
 use crate::math::{Vec3, symmetric_eigen};
 use crate::mesh::surface::{CurvedEdge, Surface};
-use crate::mesh::{clip_triangle_to_ball, closest_point_on_triangle};
+use crate::mesh::{clip_triangle_to_ball, closest_point_on_triangle, segment_in_ball};
 
 /// The curvature descriptor of a scene's surface against a template's.
 pub struct CurvatureDescriptor<'a> {
@@ -165,7 +165,18 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut CurvatureState) -> f64 {
-        let g = grow_layer(self.surface, point, self.radii[layer], state).gaussian * self.scale;
+        let ball = gather(self.surface, point, self.radii[layer], state);
+        let (sums, cut_area) = add_cut_edges(self.surface, &ball, state);
+        // Most points are rejected here, before the cut triangles' areas
+        // are clipped.
+        let (low, high) = gaussian_bounds(sums.tensor, sums.area, sums.area + cut_area);
+        let t = self.template[layer];
+        let gap = (low * self.scale - t).max(t - high * self.scale).max(0.0);
+        let lower = state.distance + gap * gap;
+        if lower > self.threshold * (1.0 + BOUND_MARGIN) {
+            return lower;
+        }
+        let g = add_cut_areas(self.surface, &ball, state, sums).gaussian * self.scale;
         let d = g - self.template[layer];
         state.distance += d * d;
         state.distance
@@ -224,6 +235,15 @@ thread_local! {
 /// returns the layer there (Gaussian curvature 0 where the ball holds no
 /// area).
 fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> Layer {
+    let ball = gather(surface, v, r, state);
+    let (sums, _) = add_cut_edges(surface, &ball, state);
+    add_cut_areas(surface, &ball, state, sums)
+}
+
+/// Grows `state`'s region to the ball of radius `r` at vertex `v`: the
+/// triangles wholly inside are summed, those cut by the sphere are listed
+/// in `state.cut`.
+fn gather(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> Ball {
     let c = surface.position(v);
     let r2 = r * r;
     let ball = Ball {
@@ -311,9 +331,38 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
             state.cut.push(t);
         }
     }
+    ball
+}
+
+/// The interior's sums of the region `gather` left in `state`, with the
+/// cut triangles' edges clipped and added (one quadratic per edge), and
+/// the cut triangles' whole area: the tensor is final, and the area lies
+/// between the sums' and that much more.
+fn add_cut_edges(surface: &Surface, ball: &Ball, state: &CurvatureState) -> (Sums, f64) {
     let mut sums = state.interior;
+    let mut cut_area = 0.0;
+    let r2 = ball.radius * ball.radius;
     for &t in &state.cut {
-        ball.add_cut(surface, t, &mut sums);
+        cut_area += surface.area(t);
+        let p = surface.corners(t).map(|q| q - ball.centre);
+        let edges = surface.curved_edges(t).iter().map(|e| {
+            let side = e.side as usize;
+            (e, segment_in_ball(p[side], p[(side + 1) % 3], r2))
+        });
+        sums.add_tensor(ball.edge_tensor(edges.filter(|&(_, length)| length > 0.0)));
+    }
+    (sums, cut_area)
+}
+
+/// The layer: `sums` from [`add_cut_edges`] with the cut triangles'
+/// clipped areas added (Gaussian curvature 0 where the ball holds no
+/// area).
+fn add_cut_areas(surface: &Surface, ball: &Ball, state: &CurvatureState, mut sums: Sums) -> Layer {
+    for &t in &state.cut {
+        let p = surface.corners(t);
+        let area = clip_triangle_to_ball(p, ball.centre, ball.radius).area;
+        sums.area += area;
+        sums.moment += centroid(p) * area;
     }
     if sums.area <= 0.0 {
         return Layer {
@@ -325,17 +374,76 @@ fn grow_layer(surface: &Surface, v: u32, r: f64, state: &mut CurvatureState) -> 
     let tensor = [[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]
         .map(|row| row.map(|x| x / sums.area));
     let (values, _) = symmetric_eigen(tensor);
-    // Drop the eigenvalue of least magnitude (the normal's).
+    Layer {
+        gaussian: gaussian(values),
+        centroid: sums.moment * (1.0 / sums.area) - ball.centre,
+    }
+}
+
+/// The Gaussian curvature from the tensor's eigenvalues: the product of
+/// the two of largest magnitude (the third belongs to the normal).
+fn gaussian(values: [f64; 3]) -> f64 {
     let smallest = (0..3)
         .min_by(|&i, &j| values[i].abs().total_cmp(&values[j].abs()))
         .expect("three eigenvalues");
-    Layer {
-        gaussian: (0..3)
-            .filter(|&i| i != smallest)
-            .map(|i| values[i])
-            .product(),
-        centroid: sums.moment * (1.0 / sums.area) - c,
+    (0..3)
+        .filter(|&i| i != smallest)
+        .map(|i| values[i])
+        .product()
+}
+
+/// How far past the threshold a bound must lie to reject: the bound and
+/// the exact value round differently, and a point must never be dropped
+/// that the exact value would keep.
+const BOUND_MARGIN: f64 = 1e-6;
+
+/// An interval that holds the Gaussian curvature of a layer whose tensor
+/// is `tensor` (final) and whose area lies in `low_area..=high_area`.
+/// Clipping the cut triangles' areas is the costly part of a layer, and
+/// most points lie far enough from the template for this interval to
+/// reject them without it. Unbounded where the area may be zero.
+fn gaussian_bounds(tensor: [f64; 6], low_area: f64, high_area: f64) -> (f64, f64) {
+    if low_area <= 0.0 {
+        return (f64::NEG_INFINITY, f64::INFINITY);
     }
+    let t = tensor;
+    let (values, _) = symmetric_eigen([[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]);
+    // The exact value solves the tensor divided by the area, which rounds
+    // differently: widen each eigenvalue by a little of the scale.
+    let slack = 1e-9 * values.iter().map(|x| x.abs()).fold(0.0, f64::max);
+    let ranges = values.map(|x| (x - slack, x + slack));
+    let least_magnitude = |(a, b): (f64, f64)| {
+        if a <= 0.0 && b >= 0.0 {
+            0.0
+        } else {
+            a.abs().min(b.abs())
+        }
+    };
+    let most_magnitude = |(a, b): (f64, f64)| a.abs().max(b.abs());
+    // `gaussian` drops the eigenvalue of least magnitude: any of the three
+    // may be the one dropped only if it can be no larger than both others.
+    let mut product = (f64::INFINITY, f64::NEG_INFINITY);
+    for (k, i, j) in [(0, 1, 2), (1, 0, 2), (2, 0, 1)] {
+        let others = most_magnitude(ranges[i]).min(most_magnitude(ranges[j]));
+        if least_magnitude(ranges[k]) > others {
+            continue;
+        }
+        let (a, b) = (ranges[i], ranges[j]);
+        for x in [a.0 * b.0, a.0 * b.1, a.1 * b.0, a.1 * b.1] {
+            product = (product.0.min(x), product.1.max(x));
+        }
+    }
+    // Divided by the area squared, at whichever end of its range moves
+    // each end of the product outward.
+    let divide = |x: f64, outward_low: bool| {
+        let larger_area = (x >= 0.0) == outward_low;
+        x / if larger_area {
+            high_area * high_area
+        } else {
+            low_area * low_area
+        }
+    };
+    (divide(product.0, true), divide(product.1, false))
 }
 
 /// Which way the neighbourhood of a vertex turns from an inner layer to an
@@ -393,21 +501,6 @@ impl Ball {
         sums.moment += centroid(surface.corners(t)) * area;
         let edges = surface.curved_edges(t);
         sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
-    }
-
-    /// Adds the part of triangle `t` inside the ball, with its curved edges
-    /// clipped.
-    fn add_cut(&self, surface: &Surface, t: u32, sums: &mut Sums) {
-        let p = surface.corners(t);
-        let clip = clip_triangle_to_ball(p, self.centre, self.radius);
-        sums.area += clip.area;
-        sums.moment += centroid(p) * clip.area;
-        let edges = surface.curved_edges(t);
-        let inside = edges
-            .iter()
-            .map(|e| (e, clip.edges[e.side as usize]))
-            .filter(|&(_, length)| length > 0.0);
-        sums.add_tensor(self.edge_tensor(inside));
     }
 
     /// The sum of `angle * length * d d^T` over `edges` (each with the
@@ -597,6 +690,87 @@ mod tests {
         assert_eq!(
             CurvatureDescriptor::describe(&a, v, &[0.6]),
             CurvatureDescriptor::describe(&b, v, &[0.6])
+        );
+    }
+
+    /// A surface with curvature of both signs and many sizes.
+    fn bumpy() -> Surface {
+        Surface::new(&height_field(60, |x, y| {
+            0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.2 * x * y
+        }))
+    }
+
+    #[test]
+    fn the_bounds_hold_the_exact_curvature() {
+        let s = bumpy();
+        let radii = [0.1, 0.25, 0.4, 0.6];
+        let (mut checked, mut narrow) = (0, 0);
+        for v in (0..s.vertex_count() as u32).step_by(7) {
+            let mut state = CurvatureState::at(&s, v);
+            for &r in &radii {
+                let ball = gather(&s, v, r, &mut state);
+                let (sums, cut_area) = add_cut_edges(&s, &ball, &state);
+                let (low, high) = gaussian_bounds(sums.tensor, sums.area, sums.area + cut_area);
+                let clipped: f64 = state
+                    .cut
+                    .iter()
+                    .map(|&t| clip_triangle_to_ball(s.corners(t), ball.centre, r).area)
+                    .sum();
+                let g = add_cut_areas(&s, &ball, &state, sums).gaussian;
+                assert!(
+                    low <= g && g <= high,
+                    "vertex {v} r {r}: {g} not in {low}..{high}"
+                );
+                // With the area known the interval closes on the value.
+                let area = sums.area + clipped;
+                let (at_low, at_high) = gaussian_bounds(sums.tensor, area, area);
+                assert!(at_low <= g && g <= at_high, "vertex {v} r {r}");
+                assert!(
+                    at_high - at_low <= 1e-6 * (1.0 + g.abs()),
+                    "vertex {v} r {r}"
+                );
+                checked += 1;
+                narrow += usize::from(high - low < 0.5 * (1.0 + g.abs()));
+            }
+        }
+        // Useful as well as safe: most intervals are narrow.
+        assert!(narrow * 2 > checked, "{narrow} of {checked} narrow");
+    }
+
+    #[test]
+    fn rejecting_by_the_bounds_keeps_what_the_exact_values_keep() {
+        let s = bumpy();
+        let radii = [0.1, 0.2, 0.3];
+        let scale = radii[2] * radii[2];
+        let template = CurvatureDescriptor::describe(&s, 1830, &radii);
+        let threshold = 0.02;
+        let d = CurvatureDescriptor::new(&s, &radii, &template, threshold);
+        let (mut kept, mut by_bound) = (0, 0);
+        for v in 0..s.vertex_count() as u32 {
+            let exact = CurvatureDescriptor::describe(&s, v, &radii);
+            let mut state = d.start(v);
+            let mut running = 0.0;
+            for layer in 0..radii.len() {
+                let step = exact[layer] * scale - template[layer] * scale;
+                running += step * step;
+                let got = d.extend(v, layer, &mut state);
+                if running <= threshold {
+                    assert_eq!(got, running, "vertex {v} layer {layer}");
+                    kept += usize::from(layer + 1 == radii.len());
+                } else {
+                    // Rejected either way; a bound never passes the exact value.
+                    assert!(
+                        got > threshold && got <= running * (1.0 + 1e-9),
+                        "vertex {v}"
+                    );
+                    by_bound += usize::from(got != running);
+                    break;
+                }
+            }
+        }
+        assert!(
+            kept > 0 && by_bound > 0,
+            "kept {kept}, rejected by the bound {by_bound}"
         );
     }
 

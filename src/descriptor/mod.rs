@@ -53,6 +53,8 @@ pub trait OnionDescriptor: Sync {
 
     /// Computes layer `layer` at `point` (in [`Self::order`]) and returns
     /// the running distance over the layers computed so far: it never
-    /// decreases, and after the last layer it is the point's distance.
+    /// decreases, and after the last layer it is the point's distance. Where
+    /// a cheaper lower bound of it already passes the threshold, the bound
+    /// may be returned instead: the point is dropped either way.
     fn extend(&self, point: u32, layer: usize, state: &mut Self::State) -> f64;
 }

@@ -45,20 +45,18 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
             edges[i] = (b - a).norm();
             continue;
         }
-        // |a + t d|^2 = r^2:  (d.d) t^2 + 2 (a.d) t + (a.a - r^2) = 0. With
-        // one end inside the roots straddle it, so disc >= 0 up to rounding.
-        let d = b - a;
-        let dd = d.norm2();
-        let half_b = a.dot(d);
-        let disc = half_b * half_b - dd * (d2[i] - r2);
-        if dd == 0.0 || (disc <= 0.0 && inside[i] == inside[j]) {
+        let Some(Crossing {
+            t0,
+            t1,
+            s0,
+            s1,
+            length,
+        }) = crossing(a, b, d2[i], d2[j], r2)
+        else {
             continue;
-        }
-        let root = disc.max(0.0).sqrt();
-        let (t0, t1) = ((-half_b - root) / dd, (-half_b + root) / dd);
-        let (s0, s1) = (t0.clamp(0.0, 1.0), t1.clamp(0.0, 1.0));
-        edges[i] = (s1 - s0).max(0.0) * dd.sqrt();
-        let at = |t: f64| a + d * t;
+        };
+        edges[i] = length;
+        let at = |t: f64| a + (b - a) * t;
         match (inside[i], inside[j]) {
             (true, false) => {
                 boundary[len] = (at(s1), true);
@@ -124,6 +122,54 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
         area: 0.5 * twice_polygon + segments,
         edges,
     }
+}
+
+/// Length inside the ball of radius sqrt(`r2`) at the origin of the
+/// segment `a`-`b`, measured as [`clip_triangle_to_ball`] measures an
+/// edge: for a caller that needs the edges and not the area.
+pub fn segment_in_ball(a: Vec3, b: Vec3, r2: f64) -> f64 {
+    let (a2, b2) = (a.norm2(), b.norm2());
+    if a2 <= r2 && b2 <= r2 {
+        return (b - a).norm();
+    }
+    crossing(a, b, a2, b2, r2).map_or(0.0, |c| c.length)
+}
+
+/// Where the line through `a` and `b` (at squared distances `a2`, `b2`
+/// from the origin) meets the sphere of squared radius `r2`.
+struct Crossing {
+    /// The roots along a + t (b - a), t0 <= t1.
+    t0: f64,
+    t1: f64,
+    /// The roots clamped to the segment.
+    s0: f64,
+    s1: f64,
+    /// Length of the segment inside the ball.
+    length: f64,
+}
+
+/// The line's crossing, or `None` where the segment has no inside part of
+/// positive length to find (a tangent, a point, a line that misses).
+fn crossing(a: Vec3, b: Vec3, a2: f64, b2: f64, r2: f64) -> Option<Crossing> {
+    // |a + t d|^2 = r^2:  (d.d) t^2 + 2 (a.d) t + (a.a - r^2) = 0. With
+    // one end inside the roots straddle it, so disc >= 0 up to rounding.
+    let d = b - a;
+    let dd = d.norm2();
+    let half_b = a.dot(d);
+    let disc = half_b * half_b - dd * (a2 - r2);
+    if dd == 0.0 || (disc <= 0.0 && (a2 <= r2) == (b2 <= r2)) {
+        return None;
+    }
+    let root = disc.max(0.0).sqrt();
+    let (t0, t1) = ((-half_b - root) / dd, (-half_b + root) / dd);
+    let (s0, s1) = (t0.clamp(0.0, 1.0), t1.clamp(0.0, 1.0));
+    Some(Crossing {
+        t0,
+        t1,
+        s0,
+        s1,
+        length: (s1 - s0).max(0.0) * dd.sqrt(),
+    })
 }
 
 /// Area between a chord and its counter-clockwise arc on a circle of
@@ -243,6 +289,9 @@ mod tests {
                 let (a, b) = (winding[i], winding[(i + 1) % 3]);
                 let want = segment_length_in_ball(a, b, origin, radius);
                 assert!((clip.edges[i] - want).abs() < 1e-9, "edge {i}");
+                // The descriptor's edges-only path measures the same.
+                let alone = segment_in_ball(a - origin, b - origin, radius * radius);
+                assert_eq!(alone, clip.edges[i], "edge {i} alone");
             }
         }
     }

@@ -17,7 +17,7 @@ pub mod surface;
 mod vertex_grid;
 mod weld;
 
-pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball};
+pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
 pub use vertex_grid::VertexGrid;
