@@ -92,7 +92,7 @@ pub struct MatchOptions {
     /// paper's schema on the whole mesh. A positive value is the side of
     /// grid cells, as a fraction of r_1: one vertex per cell is a candidate
     /// of a first pass with a looser threshold, and every vertex near its
-    /// survivors one of the final pass. At 0.5 this is 1.3-22 times faster on
+    /// survivors one of the final pass. At 0.5 this is 1.5-20 times faster on
     /// the shared scenes, but what it finds depends on where the cells fall:
     /// turning remeshed-cow can lose an occurrence (see the README).
     pub curvature_spacing: f64,
