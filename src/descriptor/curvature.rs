@@ -370,9 +370,7 @@ fn add_cut_areas(surface: &Surface, ball: &Ball, state: &CurvatureState, mut sum
             centroid: Vec3::ZERO,
         };
     }
-    let t = sums.tensor;
-    let tensor = [[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]
-        .map(|row| row.map(|x| x / sums.area));
+    let tensor = full_tensor(sums.tensor).map(|row| row.map(|x| x / sums.area));
     let (values, _) = symmetric_eigen(tensor);
     Layer {
         gaussian: gaussian(values),
@@ -406,8 +404,7 @@ fn gaussian_bounds(tensor: [f64; 6], low_area: f64, high_area: f64) -> (f64, f64
     if low_area <= 0.0 {
         return (f64::NEG_INFINITY, f64::INFINITY);
     }
-    let t = tensor;
-    let (values, _) = symmetric_eigen([[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]);
+    let (values, _) = symmetric_eigen(full_tensor(tensor));
     // The exact value solves the tensor divided by the area, which rounds
     // differently: widen each eigenvalue by a little of the scale.
     let slack = 1e-9 * values.iter().map(|x| x.abs()).fold(0.0, f64::max);
@@ -543,6 +540,12 @@ impl Sums {
             *sum += x;
         }
     }
+}
+
+/// The symmetric matrix whose upper triangle, row by row, is `upper`.
+fn full_tensor(upper: [f64; 6]) -> [[f64; 3]; 3] {
+    let t = upper;
+    [[t[0], t[1], t[2]], [t[1], t[3], t[4]], [t[2], t[4], t[5]]]
 }
 
 #[cfg(test)]
