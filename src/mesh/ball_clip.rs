@@ -45,17 +45,11 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
             edges[i] = (b - a).norm();
             continue;
         }
-        let Some(Crossing {
-            t0,
-            t1,
-            s0,
-            s1,
-            length,
-        }) = crossing(a, b, d2[i], d2[j], r2)
-        else {
+        let Some(Crossing { t0, t1, length }) = crossing(a, b, d2[i], d2[j], r2) else {
             continue;
         };
         edges[i] = length;
+        let (s0, s1) = (t0.clamp(0.0, 1.0), t1.clamp(0.0, 1.0));
         let at = |t: f64| a + (b - a) * t;
         match (inside[i], inside[j]) {
             (true, false) => {
@@ -141,10 +135,7 @@ struct Crossing {
     /// The roots along a + t (b - a), t0 <= t1.
     t0: f64,
     t1: f64,
-    /// The roots clamped to the segment.
-    s0: f64,
-    s1: f64,
-    /// Length of the segment inside the ball.
+    /// Length of the segment inside the ball (the roots clamped to it).
     length: f64,
 }
 
@@ -166,8 +157,6 @@ fn crossing(a: Vec3, b: Vec3, a2: f64, b2: f64, r2: f64) -> Option<Crossing> {
     Some(Crossing {
         t0,
         t1,
-        s0,
-        s1,
         length: (s1 - s0).max(0.0) * dd.sqrt(),
     })
 }
