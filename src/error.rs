@@ -77,6 +77,16 @@ pub enum Error {
         uri: String,
     },
 
+    /// A glTF file refers to an external buffer that may not or cannot be
+    /// read: a URI leading out of the model's folder, a link, a device.
+    #[error("glTF buffer '{uri}' is not read: {reason}")]
+    ResourceRefused {
+        /// The URI as written in the file.
+        uri: String,
+        /// Why, in words.
+        reason: String,
+    },
+
     /// The file parsed but holds no usable triangle.
     #[error("the mesh has no triangles{}", if *.degenerate > 0 { format!(" ({} degenerate ones were ignored)", .degenerate) } else { String::new() })]
     EmptyMesh {

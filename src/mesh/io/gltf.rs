@@ -14,7 +14,7 @@ use base64::Engine as _;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::ResourceResolver;
+use super::{ResourceError, ResourcePath, ResourceResolver};
 use crate::error::{Error, Format, Result};
 use crate::mesh::{Part, TriMesh};
 
@@ -239,12 +239,25 @@ impl Loader<'_> {
                 gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
                     Some(rest) => decode_data_uri(rest)
                         .map_err(|m| Error::malformed(Format::Gltf, format!("buffer {i}"), m))?,
-                    None => self
-                        .resources
-                        .resolve(uri)
-                        .ok_or_else(|| Error::MissingResource {
+                    None => {
+                        let refused = |reason: String| Error::ResourceRefused {
                             uri: uri.to_string(),
-                        })?,
+                            reason,
+                        };
+                        let path = ResourcePath::parse(uri).map_err(refused)?;
+                        match self.resources.resolve(&path, buffer.length()) {
+                            Ok(mut bytes) => {
+                                bytes.truncate(buffer.length());
+                                bytes
+                            }
+                            Err(ResourceError::Missing) => {
+                                return Err(Error::MissingResource {
+                                    uri: uri.to_string(),
+                                });
+                            }
+                            Err(ResourceError::Refused(reason)) => return Err(refused(reason)),
+                        }
+                    }
                 },
             };
             if data.len() < buffer.length() {

@@ -3,8 +3,9 @@
 //! Each format has its own module; this one picks the loader from an explicit
 //! [`Format`] or, when none is given, from the content itself. Loaders never
 //! touch the file system: a `.gltf` that refers to an external `.bin` asks a
-//! [`ResourceResolver`] for it (the CLI resolves names beside the file; the
-//! browser passes dropped files).
+//! [`ResourceResolver`] for it, by a [`ResourcePath`] that cannot leave the
+//! model's folder (the CLI reads names inside the file's folder; the browser
+//! passes dropped files).
 //!
 //! Every loader fails with [`Error::Malformed`] on content it cannot parse,
 //! including truncated files, and never panics.
@@ -12,31 +13,13 @@
 mod gltf;
 mod obj;
 mod ply;
+mod resource;
 mod stl;
+
+pub use resource::{NoResources, ResourceError, ResourcePath, ResourceResolver};
 
 use super::TriMesh;
 use crate::error::{Error, Format, Result};
-
-/// Supplies the external files a `.gltf` refers to by relative URI.
-pub trait ResourceResolver {
-    /// The bytes of the resource named `uri`, or `None` when it is not available.
-    fn resolve(&self, uri: &str) -> Option<Vec<u8>>;
-}
-
-/// A resolver that has nothing: every external reference is an error.
-pub struct NoResources;
-
-impl ResourceResolver for NoResources {
-    fn resolve(&self, _uri: &str) -> Option<Vec<u8>> {
-        None
-    }
-}
-
-impl<F: Fn(&str) -> Option<Vec<u8>>> ResourceResolver for F {
-    fn resolve(&self, uri: &str) -> Option<Vec<u8>> {
-        self(uri)
-    }
-}
 
 /// Loads a mesh from bytes; `format` `None` means: recognize it from the content.
 pub fn load(bytes: &[u8], format: Option<Format>) -> Result<TriMesh> {

@@ -1,5 +1,7 @@
 //! The `fast-reject` command: search a scene file for a template.
 
+mod folder_resolver;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -12,6 +14,7 @@ use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
 use fast_reject::template::TemplateSource;
 use fast_reject::{Error, Format};
+use folder_resolver::FolderResolver;
 
 /// Finds every occurrence of a template shape in a 3D scene (Fast Reject,
 /// Attene et al. 2010).
@@ -148,8 +151,8 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
 }
 
 /// The embedded demo: a few rotated mugs among other objects.
-const DEMO_SCENE: &[u8] = include_bytes!("../../assets/demo/scene.glb");
-const DEMO_TEMPLATE: &[u8] = include_bytes!("../../assets/demo/template.glb");
+const DEMO_SCENE: &[u8] = include_bytes!("../../../assets/demo/scene.glb");
+const DEMO_TEMPLATE: &[u8] = include_bytes!("../../../assets/demo/template.glb");
 
 fn run_demo(json: bool) -> Result<(), String> {
     let start = now_ms();
@@ -198,8 +201,8 @@ fn load_file(path: &Path) -> Result<TriMesh, String> {
         .extension()
         .and_then(|e| e.to_str())
         .and_then(Format::from_extension);
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let resolver = |uri: &str| std::fs::read(base.join(uri)).ok();
+    let resolver = FolderResolver::beside(path)
+        .map_err(|e| format!("cannot find the folder of '{}': {e}", path.display()))?;
     load_with_resources(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", path.display()))
 }
 

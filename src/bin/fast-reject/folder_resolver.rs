@@ -1,0 +1,60 @@
+//! External glTF buffers read from the `.gltf`'s own folder, and nowhere
+//! else: the library has already reduced each URI to plain names below the
+//! folder; this refuses symbolic links that lead out of it and anything
+//! that is not a regular file (a device such as `/dev/zero` never ends), and
+//! reads no more than the buffer's declared length.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use fast_reject::mesh::io::{ResourceError, ResourcePath, ResourceResolver};
+
+/// Resolves resources inside one folder.
+pub struct FolderResolver {
+    /// The folder, with every symbolic link resolved.
+    folder: PathBuf,
+}
+
+impl FolderResolver {
+    /// Resources of the model file at `model`: those in its folder.
+    pub fn beside(model: &Path) -> std::io::Result<FolderResolver> {
+        let model = model.canonicalize()?;
+        let folder = model.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(FolderResolver { folder })
+    }
+}
+
+impl ResourceResolver for FolderResolver {
+    fn resolve(&self, path: &ResourcePath, max_len: usize) -> Result<Vec<u8>, ResourceError> {
+        let mut file_path = self.folder.clone();
+        file_path.extend(path.components());
+        let real = match file_path.canonicalize() {
+            Ok(real) => real,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(ResourceError::Missing);
+            }
+            Err(e) => return Err(ResourceError::Refused(format!("cannot open it: {e}"))),
+        };
+        if !real.starts_with(&self.folder) {
+            return Err(ResourceError::Refused(format!(
+                "it is a link to '{}', outside the model's folder '{}'",
+                real.display(),
+                self.folder.display()
+            )));
+        }
+        let refused = |e: std::io::Error| ResourceError::Refused(format!("cannot read it: {e}"));
+        let file = File::open(&real).map_err(refused)?;
+        // Checked on the open file, so that what is read is what was checked.
+        if !file.metadata().map_err(refused)?.is_file() {
+            return Err(ResourceError::Refused(
+                "it is not a regular file (a folder, a device or a pipe)".into(),
+            ));
+        }
+        let mut bytes = Vec::new();
+        file.take(max_len as u64)
+            .read_to_end(&mut bytes)
+            .map_err(refused)?;
+        Ok(bytes)
+    }
+}
