@@ -6,8 +6,8 @@
 #   bash scripts/install-tools.sh            everything (CI, the tests)
 #   bash scripts/install-tools.sh --viewer   what building pkg/ and serving www/ need
 #
-# On a machine shared with other builds, CARGO_BUILD_JOBS=1 keeps the two
-# cargo installs (about 4 minutes together) polite.
+# On a machine shared with other builds, CARGO_BUILD_JOBS=1 keeps the three
+# cargo installs (about 6 minutes together) polite.
 #
 # Versions are pinned where a mismatch costs time or breaks the build:
 # wasm-bindgen-cli must equal the `wasm-bindgen` crate in Cargo.lock, or
@@ -45,6 +45,15 @@ fi
 if [[ $(wasm-pack --version 2>/dev/null) != "wasm-pack $WASM_PACK_VERSION" ]]; then
   log "wasm-pack $WASM_PACK_VERSION"
   cargo install wasm-pack --version "$WASM_PACK_VERSION" --locked --force
+fi
+
+# cargo-fuzz for scripts/fuzz.sh (CI's short fuzz run). It builds with the
+# nightly above (-Zsanitizer=address; the host's std is in its minimal
+# profile, nothing else is needed).
+cargo_fuzz_version=0.13.2
+if ((!viewer_only)) && [[ $(cargo-fuzz --version 2>/dev/null) != "cargo-fuzz $cargo_fuzz_version" ]]; then
+  log "cargo-fuzz $cargo_fuzz_version"
+  cargo install cargo-fuzz --version "$cargo_fuzz_version" --locked --force
 fi
 
 # Debian packages: wasm-opt (binaryen), Chromium and its driver, Node.

@@ -1,0 +1,84 @@
+//! Load (format sniffed) and, when that works, a small serial search for a
+//! selection on the scene. Errors are fine; a panic, abort, out-of-memory or
+//! timeout is a bug.
+//!
+//! Input layout: 8 parameter bytes, then the mesh file.
+//!
+//! | byte | meaning |
+//! |---|---|
+//! | 0 | resolution, 8 + b % 41 (8..=48) |
+//! | 1-3 | selection centre: x, y, z across the bounds (b / 255), and a bit beyond |
+//! | 4 | radius: b % 16 == 0 is 1e6 x the extent, 1 is 1e-6 x, 2 is 0, else a fraction of it (byte 5) |
+//! | 5 | that fraction: 0.02 + b / 255 |
+//! | 6 | descriptor: volume+harmonics, volume, harmonics, curvature |
+//! | 7 | layers, 1 + b % 6; bit 7 set: a coarse curvature spacing (0.5) |
+#![no_main]
+
+mod common;
+
+use fast_reject::exec::Backend;
+use fast_reject::mesh::io::load;
+use fast_reject::scene::{Scene, SceneOptions};
+use fast_reject::search::{DescriptorKind, MatchOptions, search};
+use fast_reject::template::TemplateSource;
+use libfuzzer_sys::fuzz_target;
+
+/// Below the fuzzer's RSS limit (2 GiB, with AddressSanitizer's overhead on
+/// top): a grid the library agrees to build must fit in it.
+const MAX_GRID_BYTES: u64 = 256 << 20;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((params, file)) = data.split_first_chunk::<8>() else {
+        return;
+    };
+    let Ok(mesh) = load(file, None) else {
+        return;
+    };
+    common::check_mesh(&mesh);
+    let bounds = mesh.bounds();
+    let (min, max) = (bounds.min, bounds.max);
+    let extent = (max.x - min.x).max(max.y - min.y).max(max.z - min.z);
+
+    let resolution = 8 + u32::from(params[0]) % 41;
+    let scene_options = SceneOptions::DEFAULT
+        .with_resolution(resolution)
+        .with_backend(Backend::Serial)
+        .with_max_grid_bytes(MAX_GRID_BYTES);
+    let Ok(scene) = Scene::new(mesh, &scene_options) else {
+        return;
+    };
+
+    // -0.1 .. 1.1 across each axis: mostly inside, sometimes just outside.
+    let along = |b: u8, lo: f64, hi: f64| lo + (hi - lo) * (f64::from(b) / 255.0 * 1.2 - 0.1);
+    let center = [
+        along(params[1], min.x, max.x),
+        along(params[2], min.y, max.y),
+        along(params[3], min.z, max.z),
+    ];
+    let radius = match params[4] % 16 {
+        0 => extent * 1e6,
+        1 => extent * 1e-6,
+        2 => 0.0,
+        _ => extent * (0.02 + f64::from(params[5]) / 255.0),
+    };
+
+    let mut opts = MatchOptions::DEFAULT;
+    opts.backend = Backend::Serial;
+    opts.max_grid_bytes = MAX_GRID_BYTES;
+    opts.descriptor = match params[6] % 4 {
+        0 => DescriptorKind::VolumeHarmonics,
+        1 => DescriptorKind::Volume,
+        2 => DescriptorKind::Harmonics,
+        _ => DescriptorKind::Curvature,
+    };
+    opts.layers = 1 + usize::from(params[7] & 0x7f) % 6;
+    if params[7] & 0x80 != 0 {
+        opts.curvature_spacing = 0.5;
+    }
+    let _ = search(
+        &scene,
+        &TemplateSource::Selection { center, radius },
+        &opts,
+        &mut (),
+    );
+});
