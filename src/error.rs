@@ -87,6 +87,20 @@ pub enum Error {
         reason: String,
     },
 
+    /// The mesh, as the file places it, passes the loaders' size limits.
+    #[error(
+        "the mesh would have {vertices} vertices and {triangles} triangles once every instance is placed, above the limit of {} of each or {} in all: split the model or place fewer copies",
+        crate::mesh::io::MAX_VERTICES, crate::budget::mib(*.max_bytes)
+    )]
+    MeshTooLarge {
+        /// Vertices placed so far, with the copy that passed the limit.
+        vertices: u64,
+        /// Triangles placed so far, with that copy.
+        triangles: u64,
+        /// The cap on the placed mesh's bytes.
+        max_bytes: u64,
+    },
+
     /// The file parsed but holds no usable triangle.
     #[error("the mesh has no triangles{}", if *.degenerate > 0 { format!(" ({} degenerate ones were ignored)", .degenerate) } else { String::new() })]
     EmptyMesh {
@@ -116,31 +130,56 @@ pub enum Error {
         vertices: usize,
     },
 
-    /// The voxel grid (or a scratch buffer of its size) would not fit the memory cap.
-    #[error(
-        "a {dims:?} voxel grid needs about {} MiB, above the cap of {} MiB: lower the resolution (now {resolution})",
-        .bytes >> 20, .cap >> 20
-    )]
+    /// The voxel grid would have more voxels along a side than a voxel
+    /// coordinate holds (65535).
+    #[error("a {dims:?} voxel grid is too large: at most 65535 voxels fit along a side; {advice}")]
     GridTooLarge {
-        /// Voxels along x, y, z.
+        /// Voxels along x, y, z (as far as they could be computed).
         dims: [u64; 3],
-        /// Estimated bytes needed.
-        bytes: u64,
-        /// The cap in bytes.
-        cap: u64,
-        /// The requested resolution.
-        resolution: u32,
+        /// What would work, or why nothing would.
+        advice: String,
+    },
+
+    /// The structures a scene or a search needs would pass the memory
+    /// budget; nothing was allocated for them.
+    #[error(
+        "not enough memory: this needs about {} ({estimate}), above the budget of {}; {advice}",
+        crate::budget::mib(.estimate.total()), crate::budget::mib(*.budget)
+    )]
+    OverBudget {
+        /// What was estimated, item by item.
+        estimate: crate::budget::MemoryEstimate,
+        /// The budget in bytes.
+        budget: u64,
+        /// What would work, or why nothing would.
+        advice: String,
     },
 
     /// The template is too small for the voxel size to describe it.
     #[error(
-        "the template's smallest radius is {radius_voxels:.2} voxels; raise the resolution or use a larger template (at least {min_voxels} voxels are needed)"
+        "the template's smallest radius is {radius_voxels:.2} voxels, below the {min_voxels} needed; {advice}"
     )]
     TemplateTooSmall {
         /// The smallest onion radius in voxels.
         radius_voxels: f64,
         /// The minimum accepted.
         min_voxels: f64,
+        /// What would work, or why nothing would.
+        advice: String,
+    },
+
+    /// The template is larger than the whole scene, so it cannot occur in it.
+    #[error(
+        "the template ({} across) is larger than the whole scene ({} across), so it cannot occur in it; {advice}",
+        crate::budget::length(*.template_size), crate::budget::length(*.scene_size)
+    )]
+    TemplateLargerThanScene {
+        /// The template's extent: the diameter of its outer onion ball.
+        template_size: f64,
+        /// The scene's extent: its bounding box diagonal.
+        scene_size: f64,
+        /// What would work.
+        advice: String,
     },
 
     /// The selection sphere contains no part of the scene's surface.

@@ -4,6 +4,7 @@
 // would hide the arithmetic.
 #![allow(clippy::needless_range_loop)]
 
+pub mod budget;
 pub mod cascade;
 pub mod clock;
 pub mod descriptor;

@@ -3,6 +3,7 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
+use crate::budget::{MemoryEstimate, mesh_bytes, voxel_bytes};
 use crate::clock::now_ms;
 use crate::error::Result;
 use crate::exec::Backend;
@@ -18,9 +19,10 @@ use std::sync::OnceLock;
 pub struct SceneOptions {
     /// Voxels along the scene's longest side. Default: 512 (the paper's).
     pub resolution: u32,
-    /// Refuse grids whose working set would pass this many bytes.
-    /// Default: 2 GiB.
-    pub max_grid_bytes: u64,
+    /// The memory budget in bytes for the scene and every search on it:
+    /// what would pass it is refused before it is allocated (see
+    /// [`crate::budget`]). Default: 2 GiB.
+    pub memory_budget: u64,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
 }
@@ -29,7 +31,7 @@ impl SceneOptions {
     /// The defaults.
     pub const DEFAULT: SceneOptions = SceneOptions {
         resolution: 512,
-        max_grid_bytes: 2 << 30,
+        memory_budget: 2 << 30,
         backend: Backend::Parallel,
     };
 
@@ -39,10 +41,17 @@ impl SceneOptions {
         self
     }
 
-    /// With another memory cap.
-    pub const fn with_max_grid_bytes(mut self, bytes: u64) -> Self {
-        self.max_grid_bytes = bytes;
+    /// With another memory budget.
+    pub const fn with_memory_budget(mut self, bytes: u64) -> Self {
+        self.memory_budget = bytes;
         self
+    }
+
+    /// Old name of [`SceneOptions::with_memory_budget`], kept while the
+    /// fuzz targets move over.
+    #[doc(hidden)]
+    pub const fn with_max_grid_bytes(self, bytes: u64) -> Self {
+        self.with_memory_budget(bytes)
     }
 
     /// With another backend.
@@ -58,16 +67,13 @@ impl Default for SceneOptions {
     }
 }
 
-/// Bit grids alive at once while voxelizing (surface, interior, solid, skin,
-/// near surface).
-pub(crate) const GRIDS_IN_FLIGHT: u64 = 5;
-
 /// A scene to search.
 pub struct Scene {
     mesh: TriMesh,
     spec: GridSpec,
     resolution: u32,
     backend: Backend,
+    memory_budget: u64,
     voxels: OnceLock<Voxels>,
     surface: OnceLock<(Surface, f64)>,
 }
@@ -81,16 +87,40 @@ struct Voxels {
 }
 
 impl Scene {
-    /// Prepares `mesh` for searching; checks now that its grid fits in
-    /// memory, and voxelizes on first use.
+    /// Prepares `mesh` for searching; checks now that its voxels fit the
+    /// memory budget, and voxelizes on first use.
     pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
-        spec.check_memory(GRIDS_IN_FLIGHT, options.max_grid_bytes, options.resolution)?;
+        let budget = options.memory_budget;
+        let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
+        let fits = |spec: &GridSpec| {
+            let mut estimate = MemoryEstimate::new();
+            estimate
+                .add("the mesh", mesh_estimate)
+                .add("voxel grids and count pyramid", voxel_bytes(spec));
+            estimate
+        };
+        fits(&spec).check(budget, || {
+            // The largest resolution whose grids fit, found with the same
+            // estimate.
+            let fitting = (8..options.resolution).rev().find(|&r| {
+                GridSpec::for_scene(mesh.bounds(), r)
+                    .is_ok_and(|spec| fits(&spec).total() <= budget)
+            });
+            match fitting {
+                Some(r) => format!(
+                    "lower the resolution to at most {r} (now {}), or raise the memory budget",
+                    options.resolution
+                ),
+                None => "no resolution fits: raise the memory budget, or split the scene".into(),
+            }
+        })?;
         Ok(Scene {
             mesh,
             spec,
             resolution: options.resolution,
             backend: options.backend,
+            memory_budget: budget,
             voxels: OnceLock::new(),
             surface: OnceLock::new(),
         })
@@ -147,6 +177,24 @@ impl Scene {
     /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
     pub fn near_surface(&self) -> &Grid {
         &self.voxels().near_surface
+    }
+
+    /// The memory budget in bytes for the scene and its searches.
+    pub fn memory_budget(&self) -> u64 {
+        self.memory_budget
+    }
+
+    /// What the scene holds or will hold for voxel descriptors: its mesh,
+    /// grids and pyramid (a search adds its own structures to this).
+    pub(crate) fn voxel_estimate(&self) -> MemoryEstimate {
+        let mut estimate = MemoryEstimate::new();
+        estimate
+            .add(
+                "the mesh",
+                mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len()),
+            )
+            .add("voxel grids and count pyramid", voxel_bytes(&self.spec));
+        estimate
     }
 
     /// The resolution it is voxelized at.

@@ -3,10 +3,14 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::budget::{
+    MemoryEstimate, ball_bytes, candidate_bytes, mesh_bytes, surface_bytes, voxel_bytes,
+};
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::curvature::{Layer, handedness};
 use crate::descriptor::harmonics::ClutterGuard;
+use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{
     ClutterPolicy, CurvatureDescriptor, HarmonicsDescriptor, SphericalTransform, VolumeDescriptor,
 };
@@ -18,7 +22,8 @@ use crate::mesh::VertexGrid;
 use crate::mesh::surface::Surface;
 use crate::scene::Scene;
 use crate::template::{SurfaceTemplate, Template, TemplateSource};
-use crate::verify::Verifier;
+use crate::verify::{Verifier, moment_level};
+use crate::voxel::level_for_radius;
 
 /// Which descriptors the cascade runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -109,7 +114,9 @@ pub struct MatchOptions {
     pub clutter: ClutterPolicy,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
-    /// Cap on the template's voxel grid. Default: 2 GiB.
+    /// Unused: the scene's memory budget covers the template too. Kept
+    /// while the fuzz targets move over.
+    #[doc(hidden)]
     pub max_grid_bytes: u64,
 }
 
@@ -365,13 +372,7 @@ pub fn search(
     }
     let build_template = || {
         let start = now_ms();
-        let template = Template::new(
-            source,
-            scene,
-            options.layers,
-            options.backend,
-            options.max_grid_bytes,
-        );
+        let template = Template::new(source, scene, options.layers, options.backend);
         (template, now_ms() - start)
     };
     let fresh = !scene.is_voxelized();
@@ -397,6 +398,7 @@ pub fn search(
     };
     let template = template?;
     let radii = template.radii();
+    check_voxel_search(scene, &template)?;
     let (tsolid, tvoxel, backend) = (template.solid(scene), template.voxel(), options.backend);
     let transform = SphericalTransform::new();
     // The balls' tables are built once: read at the template's one point,
@@ -511,6 +513,7 @@ fn search_surface(
     options: &MatchOptions,
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
+    check_surface_search(scene, source)?;
     let surface = scene.surface();
     let t0 = now_ms();
     let template = SurfaceTemplate::new(source, scene, options.layers)?;
@@ -587,6 +590,72 @@ fn search_surface(
             triangles: surface.triangles().len(),
         }),
         timings,
+    })
+}
+
+/// Checks, before any ball table is built, that a voxel search fits the
+/// scene's memory budget: the scene's grids, a model template's own, the
+/// run tables of the volume and verification balls and the cascade's state.
+fn check_voxel_search(scene: &Scene, template: &Template) -> Result<()> {
+    let voxel = scene.voxel_size();
+    let mut estimate = scene.voxel_estimate();
+    let tsolid = template.solid(scene);
+    if !std::ptr::eq(tsolid, scene.solid()) {
+        estimate.add(
+            "the template's voxel grids",
+            voxel_bytes(tsolid.bits().spec()),
+        );
+    }
+    let radii: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
+    for &r in &radii {
+        estimate.add(
+            "ball tables",
+            ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)),
+        );
+        estimate.add("ball tables", ball_bytes(r, moment_level(r)));
+    }
+    estimate.add("candidate state", candidate_bytes(scene.skin().len()));
+    estimate.check(scene.memory_budget(), || {
+        let outer = radii.last().copied().unwrap_or_default();
+        match estimate.largest() {
+            Some(("candidate state", _)) => format!(
+                "the scene has {} candidate points (skin voxels) at resolution {}: lower the resolution (they fall with its square), or raise the memory budget",
+                scene.skin().len(),
+                scene.resolution()
+            ),
+            _ => format!(
+                "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
+                scene.resolution()
+            ),
+        }
+    })
+}
+
+/// Checks, before the welded surfaces are built, that a curvature search
+/// fits the scene's memory budget.
+fn check_surface_search(scene: &Scene, source: &TemplateSource) -> Result<()> {
+    let mesh = scene.mesh();
+    let mut estimate = MemoryEstimate::new();
+    estimate
+        .add(
+            "the mesh",
+            mesh_bytes(mesh.positions().len(), mesh.triangles().len()),
+        )
+        .add("welded surface", surface_bytes(mesh.triangles().len()))
+        .add("candidate state", candidate_bytes(mesh.positions().len()));
+    if let TemplateSource::Model(model) = source {
+        estimate
+            .add(
+                "the template's mesh",
+                mesh_bytes(model.positions().len(), model.triangles().len()),
+            )
+            .add("welded surface", surface_bytes(model.triangles().len()));
+    }
+    estimate.check(scene.memory_budget(), || {
+        format!(
+            "the scene has {} triangles: simplify the mesh, or raise the memory budget",
+            mesh.triangles().len()
+        )
     })
 }
 

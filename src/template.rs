@@ -16,12 +16,13 @@
 //! scene's candidates; the curvature descriptor at the mesh vertex nearest to
 //! c_T ([`SurfaceTemplate`]), for the same reason.
 
+use crate::budget::{mesh_bytes, voxel_bytes};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::surface::Surface;
 use crate::mesh::{TriMesh, minimal_bounding_sphere};
-use crate::scene::{GRIDS_IN_FLIGHT, Scene, nearest_voxel};
+use crate::scene::{Scene, nearest_voxel};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
 
 /// Below this many voxels, the first layer cannot describe anything.
@@ -64,7 +65,6 @@ impl Template {
         scene: &Scene,
         layers: usize,
         backend: Backend,
-        max_grid_bytes: u64,
     ) -> Result<Template> {
         check_layers(layers)?;
         let voxel_size = scene.voxel_size();
@@ -80,8 +80,21 @@ impl Template {
                     .map(|i| mesh.vertex(i as u32))
                     .collect();
                 let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
-                let spec = GridSpec::around(mesh.bounds(), voxel_size);
-                spec.check_memory(GRIDS_IN_FLIGHT, max_grid_bytes, scene.resolution())?;
+                check_extent(2.0 * sphere.radius, scene, false)?;
+                let spec = GridSpec::around(mesh.bounds(), voxel_size)?;
+                let mut estimate = scene.voxel_estimate();
+                estimate
+                    .add(
+                        "the template's mesh",
+                        mesh_bytes(mesh.positions().len(), mesh.triangles().len()),
+                    )
+                    .add("the template's voxel grids", voxel_bytes(&spec));
+                estimate.check(scene.memory_budget(), || {
+                    format!(
+                        "lower the resolution (now {}), or raise the memory budget",
+                        scene.resolution()
+                    )
+                })?;
                 let grid = voxelize(mesh, &spec, backend);
                 let skin: Vec<[u16; 3]> = skin(&grid, backend).iter_ones().collect();
                 // The surface of the template is the boundary of its solid:
@@ -100,6 +113,7 @@ impl Template {
             }
             &TemplateSource::Selection { center, radius } => {
                 let snapped = snap_selection(scene, center, radius)?;
+                check_extent(radius, scene, true)?;
                 let voxel = nearest_voxel(scene.grid().spec(), scene.skin(), snapped)
                     .expect("a scene has skin");
                 (snapped, radius, None, voxel)
@@ -107,10 +121,7 @@ impl Template {
         };
         let first = radius / layers as f64;
         if first / voxel_size < MIN_RADIUS_VOXELS {
-            return Err(Error::TemplateTooSmall {
-                radius_voxels: first / voxel_size,
-                min_voxels: MIN_RADIUS_VOXELS,
-            });
+            return Err(too_small(first / voxel_size, scene.resolution()));
         }
         Ok(Template {
             center,
@@ -181,10 +192,13 @@ impl SurfaceTemplate {
                     .map(|v| surface.position(v))
                     .collect();
                 let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
+                check_extent(2.0 * sphere.radius, scene, false)?;
                 (Some(surface), mesh.closest_point(sphere.center).point, None)
             }
             &TemplateSource::Selection { center, radius } => {
-                (None, snap_selection(scene, center, radius)?, Some(radius))
+                let snapped = snap_selection(scene, center, radius)?;
+                check_extent(radius, scene, true)?;
+                (None, snapped, Some(radius))
             }
         };
         let surface = own_surface.as_ref().unwrap_or(scene.surface());
@@ -231,6 +245,54 @@ impl SurfaceTemplate {
     /// The surface the template's descriptor is read from.
     pub fn surface<'a>(&'a self, scene: &'a Scene) -> &'a Surface {
         self.own_surface.as_ref().unwrap_or(scene.surface())
+    }
+}
+
+/// Fails when the template is wider than the whole scene (the bounding
+/// box's diagonal): it cannot occur there, and its onion balls would be
+/// far larger than anything the scene holds. `size` is a model's diameter
+/// or a selection sphere's radius (a sphere centred on the surface covers
+/// the whole scene once its radius reaches the diagonal).
+fn check_extent(size: f64, scene: &Scene, selection: bool) -> Result<()> {
+    let diagonal = scene.mesh().bounds().extent().norm();
+    if size <= diagonal * (1.0 + 1e-9) {
+        return Ok(());
+    }
+    let advice = if selection {
+        format!(
+            "the sphere takes in all of it: pick a radius that holds one part, below {}",
+            crate::budget::length(diagonal)
+        )
+    } else {
+        format!(
+            "it is {:.3e} times larger: check that both files use the same units (millimetres and metres differ 1000 times)",
+            size / diagonal
+        )
+    };
+    Err(Error::TemplateLargerThanScene {
+        template_size: if selection { 2.0 * size } else { size },
+        scene_size: diagonal,
+        advice,
+    })
+}
+
+/// The error for a first radius of `radius_voxels` voxels at `resolution`,
+/// with the resolution that would fit it, if any.
+fn too_small(radius_voxels: f64, resolution: u32) -> Error {
+    let needed = (f64::from(resolution) * MIN_RADIUS_VOXELS / radius_voxels).ceil();
+    let advice = if needed <= 16384.0 {
+        format!(
+            "raise the resolution to at least {needed} (now {resolution}), use fewer layers, or pick a larger template"
+        )
+    } else {
+        format!(
+            "no resolution fits: it would need {needed:.3e} voxels along the scene, above the maximum of 16384; check that both files use the same units, or search a smaller part of the scene"
+        )
+    };
+    Error::TemplateTooSmall {
+        radius_voxels,
+        min_voxels: MIN_RADIUS_VOXELS,
+        advice,
     }
 }
 

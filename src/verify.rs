@@ -50,6 +50,11 @@ const SAMPLES: usize = 4096;
 /// Blocks per radius for the moments.
 const MOMENT_BLOCKS: f64 = 10.0;
 
+/// The pyramid level the moment ball of `radius` voxels is read from.
+pub(crate) fn moment_level(radius: f64) -> u32 {
+    level_for_radius(radius, MOMENT_BLOCKS).max(1)
+}
+
 /// First rotation step of the pose refinement (radians, about 2 degrees).
 const REFINE_ANGLE: f64 = 0.035;
 
@@ -125,7 +130,7 @@ impl Verifier {
         let balls: Vec<Ball> = radii
             .iter()
             .map(|&r| {
-                let ball = Ball::build(r, level_for_radius(r, MOMENT_BLOCKS).max(1), backend);
+                let ball = Ball::build(r, moment_level(r), backend);
                 solid.level(ball.level(), backend);
                 ball
             })
@@ -470,7 +475,7 @@ mod tests {
             Vec3::new(0.3, -0.15, -0.15),
             Vec3::new(1.1, 0.15, 0.15),
         ));
-        let spec = GridSpec::around(m.bounds(), 0.04);
+        let spec = GridSpec::around(m.bounds(), 0.04).unwrap();
         let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
         let near = dilate(&skin(solid.bits(), Backend::Serial), Backend::Serial);
         let surface: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();

@@ -209,17 +209,41 @@ fn a_selection_sphere_that_touches_no_surface_is_an_error() {
 }
 
 #[test]
-fn a_grid_beyond_the_memory_cap_is_an_error() {
+fn a_grid_beyond_the_memory_budget_is_an_error() {
     let mesh = uv_sphere(Vec3::ZERO, 1.0, 16, 32);
     let e = Scene::new(mesh.clone(), &SceneOptions::DEFAULT.with_resolution(16384)).unwrap_err();
-    assert!(matches!(e, Error::GridTooLarge { .. }), "{e}");
-    assert!(e.to_string().contains("lower the resolution"), "{e}");
+    assert!(matches!(e, Error::OverBudget { .. }), "{e}");
+    assert!(
+        e.to_string().contains("lower the resolution to at most"),
+        "{e}"
+    );
+    // The resolution the message names fits.
+    let fits: u32 = e
+        .to_string()
+        .split("at most ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(fits > 512, "{e}");
+    assert!(Scene::new(mesh.clone(), &SceneOptions::DEFAULT.with_resolution(fits)).is_ok());
+    assert!(
+        Scene::new(
+            mesh.clone(),
+            &SceneOptions::DEFAULT.with_resolution(fits + 1)
+        )
+        .is_err()
+    );
     let e = Scene::new(
         mesh.clone(),
-        &SceneOptions::DEFAULT.with_max_grid_bytes(1 << 10),
+        &SceneOptions::DEFAULT.with_memory_budget(1 << 10),
     )
     .unwrap_err();
-    assert!(matches!(e, Error::GridTooLarge { .. }), "{e}");
+    assert!(matches!(e, Error::OverBudget { .. }), "{e}");
+    assert!(e.to_string().contains("no resolution fits"), "{e}");
     assert!(matches!(
         Scene::new(mesh, &SceneOptions::DEFAULT.with_resolution(20_000)),
         Err(Error::InvalidOption { .. })

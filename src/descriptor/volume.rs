@@ -213,6 +213,14 @@ impl Ball {
         self.level
     }
 
+    /// Bytes its run tables hold once bound (what
+    /// [`crate::budget::ball_bytes`] estimates ahead).
+    #[cfg(test)]
+    pub(crate) fn table_bytes(&self) -> u64 {
+        let runs: usize = self.phases.iter().map(|p| p.spans.len()).sum();
+        (runs * (size_of::<Span>() + size_of::<(i64, i64)>())) as u64
+    }
+
     /// Builds the level this ball reads (if needed) and binds the runs to
     /// its layout; a ball is then only used with this solid.
     pub fn bind(mut self, solid: &Solid, backend: Backend) -> Ball {

@@ -39,23 +39,35 @@ impl GridSpec {
                 "the scene has no extent (all its vertices coincide)",
             ));
         }
-        Ok(GridSpec::around(bounds, longest / resolution as f64))
+        GridSpec::around(bounds, longest / resolution as f64)
     }
 
     /// The grid with voxels of `voxel_size` that holds `bounds` plus padding
-    /// (templates use the scene's voxel size so that radii agree).
-    pub fn around(bounds: Aabb, voxel_size: f64) -> GridSpec {
+    /// (templates use the scene's voxel size so that radii agree). Fails when
+    /// a side would need more voxels than a voxel coordinate (u16) holds.
+    pub fn around(bounds: Aabb, voxel_size: f64) -> Result<GridSpec> {
         let pad = PADDING as f64 * voxel_size;
         let ext = bounds.extent();
         // floor + 1: a vertex exactly on the far face lands in a voxel of its
-        // own, and the padding still follows it.
-        let dims =
-            [ext.x, ext.y, ext.z].map(|e| (e / voxel_size).floor() as usize + 1 + 2 * PADDING);
-        GridSpec {
+        // own, and the padding still follows it. Counted in f64, which cannot
+        // wrap, before any conversion.
+        let sides =
+            [ext.x, ext.y, ext.z].map(|e| (e / voxel_size).floor() + 1.0 + 2.0 * PADDING as f64);
+        if !sides.iter().all(|s| (1.0..=u16::MAX as f64).contains(s)) {
+            return Err(Error::GridTooLarge {
+                // `as` saturates: NaN reads 0, anything past u64 reads u64::MAX.
+                dims: sides.map(|s| s as u64),
+                advice: format!(
+                    "the voxels ({voxel_size:e} wide) are too small for a box of {:e} x {:e} x {:e}",
+                    ext.x, ext.y, ext.z
+                ),
+            });
+        }
+        Ok(GridSpec {
             origin: bounds.min - Vec3::new(pad, pad, pad),
             voxel_size,
-            dims,
-        }
+            dims: sides.map(|s| s as usize),
+        })
     }
 
     /// Number of voxels.
@@ -66,20 +78,6 @@ impl GridSpec {
     /// Bytes of one bit grid of this size (rows padded to 64 bits).
     pub fn grid_bytes(&self) -> u64 {
         self.dims[0].div_ceil(64) as u64 * 8 * self.dims[1] as u64 * self.dims[2] as u64
-    }
-
-    /// Fails when `copies` bit grids of this size would pass `cap` bytes.
-    pub fn check_memory(&self, copies: u64, cap: u64, resolution: u32) -> Result<()> {
-        let bytes = self.grid_bytes().saturating_mul(copies);
-        if bytes > cap || self.dims.iter().any(|&d| d > u16::MAX as usize) {
-            return Err(Error::GridTooLarge {
-                dims: self.dims.map(|d| d as u64),
-                bytes,
-                cap,
-                resolution,
-            });
-        }
-        Ok(())
     }
 
     /// A world point in grid units (voxel `i` spans `[i, i + 1)`).
@@ -297,10 +295,15 @@ mod tests {
     }
 
     #[test]
-    fn memory_cap_is_enforced() {
-        let s = spec([4096, 4096, 4096]);
-        let e = s.check_memory(1, 1 << 30, 4096).unwrap_err();
-        assert!(matches!(e, Error::GridTooLarge { .. }), "{e}");
-        assert!(spec([64, 64, 64]).check_memory(4, 1 << 30, 64).is_ok());
+    fn a_grid_too_large_for_u16_coordinates_is_an_error_not_a_wrap() {
+        let b = |e: f64| Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::new(e, 1.0, 1.0),
+        };
+        assert!(GridSpec::around(b(70000.0), 1.0).is_err());
+        assert!(GridSpec::around(b(1e30), 1.0).is_err());
+        assert!(GridSpec::around(b(f64::INFINITY), 1.0).is_err());
+        assert!(GridSpec::around(b(1.0), 0.0).is_err());
+        assert_eq!(GridSpec::around(b(65000.0), 2.0).unwrap().dims[0], 32503);
     }
 }

@@ -24,7 +24,7 @@ use crate::cascade::LayerStats;
 use crate::clock::{now_ms, set_clock};
 use crate::error::Error;
 use crate::mesh::TriMesh;
-use crate::mesh::io::load;
+use crate::mesh::io::{NoResources, load_within};
 use crate::scene::Scene;
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
@@ -135,7 +135,8 @@ fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), Js
     ensure_started();
     let start = now_ms();
     let format = options::parse_format(format.as_deref())?;
-    let mesh = load(bytes, format).map_err(js_error)?;
+    let mesh =
+        load_within(bytes, format, &NoResources, options::memory_budget() / 2).map_err(js_error)?;
     Ok((mesh, now_ms() - start))
 }
 

@@ -36,16 +36,17 @@ pub fn memory_limit_bytes() -> u64 {
     }
 }
 
-/// The cap on a scene's voxel grids: a quarter of the memory, because the
-/// core's estimate counts only the bit grids, and the count pyramid, the
-/// candidate list and the template's own grid come on top.
-fn max_grid_bytes() -> u64 {
-    memory_limit_bytes() / 4
+/// The memory budget of a scene and its searches: half of what the module
+/// may grow to. The core's estimates cover its large structures; the input
+/// bytes copied in from JavaScript, the report and the allocator's slack
+/// come on top, and a failed allocation would trap the module.
+pub fn memory_budget() -> u64 {
+    memory_limit_bytes() / 2
 }
 
 /// Scene options for a resolution given from JavaScript (default 512).
 pub fn scene_options(resolution: Option<f64>) -> Result<SceneOptions, JsError> {
-    let mut options = SceneOptions::DEFAULT.with_max_grid_bytes(max_grid_bytes());
+    let mut options = SceneOptions::DEFAULT.with_memory_budget(memory_budget());
     if let Some(value) = resolution {
         options = options.with_resolution(whole_number("resolution", value, 8, 16384)?);
     }
@@ -77,10 +78,8 @@ pub struct MatchSettings {
 impl MatchSettings {
     /// Reads a plain object (`undefined` or `null` mean the defaults).
     pub fn from_js(value: &JsValue) -> Result<MatchSettings, JsError> {
-        let mut options = MatchOptions::DEFAULT;
-        options.max_grid_bytes = max_grid_bytes();
         let mut settings = MatchSettings {
-            options,
+            options: MatchOptions::DEFAULT,
             resolution: None,
         };
         if value.is_undefined() || value.is_null() {

@@ -53,6 +53,10 @@ struct MatchArgs {
     /// Voxels along the scene's longest side.
     #[arg(long, default_value_t = SceneOptions::DEFAULT.resolution)]
     resolution: u32,
+    /// Memory budget in MiB for the scene and the search: what would need
+    /// more is refused before it is allocated.
+    #[arg(long, value_name = "MIB", default_value_t = SceneOptions::DEFAULT.memory_budget >> 20)]
+    memory_budget: u64,
     /// Worker threads (1 runs the serial backend; default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -103,9 +107,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// More threads than this many per core only add overhead.
+const MAX_THREADS_PER_CORE: usize = 4;
+
 fn run_match(args: MatchArgs) -> Result<(), String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let backend = match args.threads {
         Some(0) => return Err("--threads must be at least 1".into()),
+        // Each thread has its own stack and scratch; thousands only cost.
+        Some(n) if n > MAX_THREADS_PER_CORE * cores => {
+            return Err(format!(
+                "--threads {n} is more than {MAX_THREADS_PER_CORE} per core ({cores} cores here): use at most {}",
+                MAX_THREADS_PER_CORE * cores
+            ));
+        }
         Some(1) => Backend::Serial,
         _ => Backend::Parallel,
     };
@@ -122,6 +137,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     options.backend = backend;
     let scene_options = SceneOptions::DEFAULT
         .with_resolution(args.resolution)
+        .with_memory_budget(args.memory_budget.saturating_mul(1 << 20))
         .with_backend(backend);
     let job = || -> Result<MatchReport, String> {
         let start = now_ms();

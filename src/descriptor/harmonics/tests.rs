@@ -196,7 +196,7 @@ fn signatures_at(
     radii: &[f64],
     t: &SphericalTransform,
 ) -> Vec<Signature> {
-    let spec = GridSpec::around(mesh.bounds(), voxel);
+    let spec = GridSpec::around(mesh.bounds(), voxel).unwrap();
     let g = Solid::new(voxelize(mesh, &spec, Backend::Serial));
     let target = spec.to_grid(point);
     let v = skin(g.bits(), Backend::Serial)
@@ -290,7 +290,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     // (clutter for the outer spheres of the points on that side) and a
     // torus nearby.
     let template_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
-    let tspec = GridSpec::around(template_mesh.bounds(), voxel);
+    let tspec = GridSpec::around(template_mesh.bounds(), voxel).unwrap();
     let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Backend::Serial));
     let tv = skin(tsolid.bits(), Backend::Serial)
         .iter_ones()
@@ -305,7 +305,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
         Vec3::new(-1.3, 0.9, 0.9),
     ));
     scene_mesh.append(&torus(Vec3::new(1.6, 1.6, 0.0), 0.4, 0.15, 32, 12));
-    let spec = GridSpec::around(scene_mesh.bounds(), voxel);
+    let spec = GridSpec::around(scene_mesh.bounds(), voxel).unwrap();
     let solid = Solid::new(voxelize(&scene_mesh, &spec, Backend::Serial));
     let points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
     let volume = VolumeDescriptor::new(

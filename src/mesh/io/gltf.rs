@@ -14,12 +14,18 @@ use base64::Engine as _;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
+use super::{MAX_TRIANGLES, MAX_VERTICES};
 use super::{ResourceError, ResourcePath, ResourceResolver};
 use crate::error::{Error, Format, Result};
 use crate::mesh::{Part, TriMesh};
 
 /// Deeper node nesting than this is treated as a cycle (validation does not catch them).
 const MAX_DEPTH: usize = 256;
+
+/// An accessor without a buffer view is zeros except for its sparse values:
+/// its elements are not stored anywhere, so a few bytes could declare 10^15
+/// of them. It may have at most this many elements per byte of the file.
+const UNSTORED_ELEMENTS_PER_BYTE: usize = 1;
 
 /// A 4x4 matrix, column-major like glTF: `m[column][row]`.
 type Mat4 = [[f64; 4]; 4];
@@ -31,11 +37,17 @@ const IDENTITY: Mat4 = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 
-pub(super) fn parse(bytes: &[u8], resources: &dyn ResourceResolver) -> Result<TriMesh> {
+pub(super) fn parse(
+    bytes: &[u8],
+    resources: &dyn ResourceResolver,
+    max_mesh_bytes: u64,
+) -> Result<TriMesh> {
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
     validate(&gltf.document)?;
     let mut loader = Loader {
+        input_len: bytes.len(),
+        max_mesh_bytes,
         buffers: vec![None; gltf.buffers().len()],
         blob: gltf.blob.as_deref(),
         resources,
@@ -118,6 +130,10 @@ struct LocalMesh {
 }
 
 struct Loader<'a> {
+    /// Bytes of the document (with its GLB chunk).
+    input_len: usize,
+    /// The caller's cap on the placed mesh.
+    max_mesh_bytes: u64,
     buffers: Vec<Option<Vec<u8>>>,
     blob: Option<&'a [u8]>,
     resources: &'a dyn ResourceResolver,
@@ -155,12 +171,12 @@ impl Loader<'_> {
                 self.meshes.insert(mesh.index(), decoded);
             }
             let m = &self.meshes[&mesh.index()];
-            let base = u32::try_from(self.positions.len())
-                .ok()
-                .filter(|b| b.checked_add(m.positions.len() as u32).is_some())
-                .ok_or_else(|| {
-                    Error::malformed(Format::Gltf, "scene", "more than 4 billion vertices")
-                })?;
+            // Each node places a copy: count it before copying, so that a
+            // small file instancing a mesh many times stops here.
+            let vertices = self.positions.len() + m.positions.len();
+            let triangles = self.triangles.len() + m.triangles.len();
+            check_size(vertices, triangles, self.max_mesh_bytes)?;
+            let base = self.positions.len() as u32;
             self.parts.push(Part {
                 first_vertex: base,
                 vertex_count: m.positions.len() as u32,
@@ -212,6 +228,11 @@ impl Loader<'_> {
                     format!("index {bad} is past the {} positions", positions.len()),
                 ));
             }
+            check_size(
+                out.positions.len() + positions.len(),
+                out.triangles.len() + indices.len() / 3,
+                self.max_mesh_bytes,
+            )?;
             let base = out.positions.len() as u32;
             out.positions.extend_from_slice(&positions);
             let tris =
@@ -308,8 +329,7 @@ impl Loader<'_> {
             .ok_or_else(|| Error::malformed(Format::Gltf, at, "accessor is impossibly large"))?;
         let mut out = match acc.view() {
             None => {
-                // No view: zeros, unless sparse values fill some in. Do not
-                // allocate more than a sparse accessor could reasonably use.
+                // No view: zeros, unless sparse values fill some in.
                 if acc.sparse().is_none() {
                     return Err(Error::malformed(
                         Format::Gltf,
@@ -317,6 +337,18 @@ impl Loader<'_> {
                         format!(
                             "accessor {} has neither a buffer view nor sparse values",
                             acc.index()
+                        ),
+                    ));
+                }
+                let most = self.input_len.saturating_mul(UNSTORED_ELEMENTS_PER_BYTE);
+                if count > most {
+                    return Err(Error::malformed(
+                        Format::Gltf,
+                        at,
+                        format!(
+                            "accessor {} has no buffer view but declares {count} elements, more than the {most} a file of {} bytes may leave unstored",
+                            acc.index(),
+                            self.input_len
                         ),
                     ));
                 }
@@ -444,6 +476,19 @@ impl Loader<'_> {
             })
             .collect())
     }
+}
+
+/// Fails when the placed meshes would pass the loaders' size limits.
+fn check_size(vertices: usize, triangles: usize, max_bytes: u64) -> Result<()> {
+    let bytes = 12 * (vertices as u64 + triangles as u64);
+    if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES || bytes > max_bytes {
+        return Err(Error::MeshTooLarge {
+            vertices: vertices as u64,
+            triangles: triangles as u64,
+            max_bytes: max_bytes.min(12 * (MAX_VERTICES + MAX_TRIANGLES) as u64),
+        });
+    }
+    Ok(())
 }
 
 /// One little-endian component as f32 (integer positions come from
@@ -582,18 +627,18 @@ mod tests {
     #[test]
     fn external_buffers_come_from_the_resolver() {
         let doc = tiny_gltf("tri.bin");
-        let e = parse(doc.as_bytes(), &NoResources).unwrap_err();
+        let e = parse(doc.as_bytes(), &NoResources, u64::MAX).unwrap_err();
         assert!(
             matches!(&e, Error::MissingResource { uri } if uri == "tri.bin"),
             "{e}"
         );
         let resolver = |uri: &str| (uri == "tri.bin").then(tiny_buffer);
-        let m = parse(doc.as_bytes(), &resolver).unwrap();
+        let m = parse(doc.as_bytes(), &resolver, u64::MAX).unwrap();
         assert_eq!(m.triangles().len(), 1);
         // A short external buffer is reported, not read past.
         let short = |_: &str| Some(tiny_buffer()[..20].to_vec());
         assert!(matches!(
-            parse(doc.as_bytes(), &short),
+            parse(doc.as_bytes(), &short, u64::MAX),
             Err(Error::Malformed { .. })
         ));
     }

@@ -21,6 +21,15 @@ pub use resource::{NoResources, ResourceError, ResourcePath, ResourceResolver};
 use super::TriMesh;
 use crate::error::{Error, Format, Result};
 
+/// The most vertices a loaded mesh may have: 2^25 (about 33 million,
+/// 400 MB of positions). A glTF file can place one mesh on many nodes, so a
+/// small file could otherwise expand to any size; the other formats store
+/// every vertex and stay within their input's size.
+pub const MAX_VERTICES: usize = 1 << 25;
+
+/// The most triangles a loaded mesh may have: 2^25, as [`MAX_VERTICES`].
+pub const MAX_TRIANGLES: usize = 1 << 25;
+
 /// Loads a mesh from bytes; `format` `None` means: recognize it from the content.
 pub fn load(bytes: &[u8], format: Option<Format>) -> Result<TriMesh> {
     load_with_resources(bytes, format, &NoResources)
@@ -32,6 +41,19 @@ pub fn load_with_resources(
     format: Option<Format>,
     resources: &dyn ResourceResolver,
 ) -> Result<TriMesh> {
+    load_within(bytes, format, resources, u64::MAX)
+}
+
+/// Like [`load_with_resources`], refusing a glTF whose placed instances
+/// would need more than `max_mesh_bytes` (12 bytes a vertex and 12 a
+/// triangle) before copying them: for a host with little memory, such as a
+/// wasm module, where a failed allocation cannot be caught.
+pub fn load_within(
+    bytes: &[u8],
+    format: Option<Format>,
+    resources: &dyn ResourceResolver,
+    max_mesh_bytes: u64,
+) -> Result<TriMesh> {
     let format = match format {
         Some(f) => f,
         None => sniff(bytes).ok_or(Error::UnknownFormat { len: bytes.len() })?,
@@ -40,7 +62,7 @@ pub fn load_with_resources(
         return Err(Error::malformed(format, "start", "the input is empty"));
     }
     match format {
-        Format::Gltf => gltf::parse(bytes, resources),
+        Format::Gltf => gltf::parse(bytes, resources, max_mesh_bytes),
         Format::Obj => obj::parse(bytes),
         Format::Ply => ply::parse(bytes),
         Format::Stl => stl::parse(bytes),

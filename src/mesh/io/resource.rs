@@ -40,10 +40,18 @@ impl ResourcePath {
             return Err("the URI contains a NUL character".into());
         }
         if decoded.contains('\\') {
-            return Err("the URI contains a backslash, which some systems read as a separator".into());
+            return Err(
+                "the URI contains a backslash, which some systems read as a separator".into(),
+            );
         }
         if decoded.starts_with('/') {
-            return Err("the URI is an absolute path; only paths relative to the model's folder are read".into());
+            return Err(
+                "the URI is an absolute path; only paths relative to the model's folder are read"
+                    .into(),
+            );
+        }
+        if decoded.ends_with('/') || decoded.ends_with("/.") {
+            return Err("the URI names a folder, not a file".into());
         }
         let mut components = Vec::new();
         for part in decoded.split('/') {

@@ -1,0 +1,215 @@
+//! One memory budget for a scene and every search on it.
+//!
+//! Each large structure is estimated from sizes known before it is built
+//! (grid dimensions, radii in voxels, candidate counts), and the sum is
+//! checked against the budget first: an input that would need too much
+//! stops with [`Error::OverBudget`], naming the structure and what to
+//! change, instead of aborting the process or trapping the wasm module
+//! halfway through. Estimates are upper bounds, not measurements.
+
+use std::fmt;
+
+use crate::error::{Error, Result};
+use crate::voxel::{GridSpec, MAX_LEVEL};
+
+/// Bit grids alive at once while voxelizing (surface, interior, solid,
+/// skin, near surface).
+pub(crate) const GRIDS_IN_FLIGHT: u64 = 5;
+
+/// Bytes each candidate point holds at most while the cascade runs: its
+/// index, a descriptor state and its running distance, in the list being
+/// filtered and the one being built.
+const BYTES_PER_CANDIDATE: u64 = 128;
+
+/// Bytes of a skin voxel in a candidate list ([u16; 3]).
+const BYTES_PER_SKIN_VOXEL: u64 = 6;
+
+/// Bytes per triangle of the welded surface the curvature descriptor walks
+/// (corners, areas, edges, adjacency, patches), rounded up from its arrays.
+const SURFACE_BYTES_PER_TRIANGLE: u64 = 320;
+
+/// Bytes of a mesh: f32 positions and u32 triangles, with room to copy.
+pub(crate) fn mesh_bytes(vertices: usize, triangles: usize) -> u64 {
+    2 * (12 * vertices as u64 + 12 * triangles as u64)
+}
+
+/// Bytes of the welded surface of a mesh with `triangles`.
+pub(crate) fn surface_bytes(triangles: usize) -> u64 {
+    SURFACE_BYTES_PER_TRIANGLE.saturating_mul(triangles as u64)
+}
+
+/// Bytes of voxelizing on `spec`: the bit grids alive at once, every level
+/// of the count pyramid (u32 running sums and u8 occupancy per block, each
+/// level an eighth of the one below), and at most one skin voxel per voxel
+/// of the solid's surface layer.
+pub(crate) fn voxel_bytes(spec: &GridSpec) -> u64 {
+    let grids = spec.grid_bytes().saturating_mul(GRIDS_IN_FLIGHT);
+    let [nx, ny, nz] = spec.dims.map(|d| d as u64);
+    let mut pyramid = 0u64;
+    for level in 1..=MAX_LEVEL {
+        let blocks = [nx, ny, nz].map(|d| d.div_ceil(1 << level) + 1);
+        pyramid = pyramid.saturating_add(5 * blocks[0] * blocks[1] * blocks[2]);
+    }
+    // The skin is a shell: about the bounding box's faces, twice.
+    let faces = 2 * (nx * ny + ny * nz + nz * nx);
+    grids
+        .saturating_add(pyramid)
+        .saturating_add(2 * faces * BYTES_PER_SKIN_VOXEL)
+}
+
+/// Bytes of the cascade's state for `candidates` points.
+pub(crate) fn candidate_bytes(candidates: usize) -> u64 {
+    BYTES_PER_CANDIDATE.saturating_mul(candidates as u64)
+}
+
+/// Bytes of the run tables of one digital ball of `radius` voxels read at
+/// pyramid `level`: a table per position of the centre in its block (8^level
+/// of them, an eighth more while the mirrored ones are derived), each with
+/// about pi (r/s + 1.5)^2 runs of 8 bytes plus 16 bytes of bound offsets.
+pub(crate) fn ball_bytes(radius: f64, level: u32) -> u64 {
+    let s = f64::from(1u32 << level);
+    let runs = std::f64::consts::PI * (radius / s + 1.5).powi(2);
+    let phases = s * s * s * 1.125;
+    let bytes = phases * (24.0 * runs + 128.0);
+    if bytes.is_finite() && bytes < u64::MAX as f64 {
+        bytes as u64
+    } else {
+        u64::MAX
+    }
+}
+
+/// What a search or a scene needs, item by item.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MemoryEstimate {
+    items: Vec<(&'static str, u64)>,
+}
+
+impl MemoryEstimate {
+    /// An empty estimate.
+    pub(crate) fn new() -> MemoryEstimate {
+        MemoryEstimate::default()
+    }
+
+    /// Adds `bytes` for `what`.
+    pub(crate) fn add(&mut self, what: &'static str, bytes: u64) -> &mut Self {
+        if bytes > 0 {
+            match self.items.iter_mut().find(|(w, _)| *w == what) {
+                Some((_, b)) => *b = b.saturating_add(bytes),
+                None => self.items.push((what, bytes)),
+            }
+        }
+        self
+    }
+
+    /// The sum.
+    pub fn total(&self) -> u64 {
+        self.items
+            .iter()
+            .fold(0u64, |s, (_, b)| s.saturating_add(*b))
+    }
+
+    /// The largest item.
+    pub fn largest(&self) -> Option<(&'static str, u64)> {
+        self.items.iter().copied().max_by_key(|&(_, b)| b)
+    }
+
+    /// Fails with [`Error::OverBudget`] when the total passes `budget`;
+    /// `advice` says what to change.
+    pub(crate) fn check(&self, budget: u64, advice: impl FnOnce() -> String) -> Result<()> {
+        if self.total() <= budget {
+            return Ok(());
+        }
+        Err(Error::OverBudget {
+            estimate: self.clone(),
+            budget,
+            advice: advice(),
+        })
+    }
+}
+
+/// Items largest first, in MiB.
+impl fmt::Display for MemoryEstimate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut items = self.items.clone();
+        items.sort_by_key(|&(_, b)| std::cmp::Reverse(b));
+        for (i, (what, bytes)) in items.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{what} {}", mib(*bytes))?;
+        }
+        Ok(())
+    }
+}
+
+/// Bytes in MiB for messages: "12 MiB", or "a few EiB" for nonsense.
+pub(crate) fn mib(bytes: u64) -> String {
+    if bytes == u64::MAX {
+        "more than 16 EiB".into()
+    } else {
+        format!("{} MiB", bytes.div_ceil(1 << 20))
+    }
+}
+
+/// A length for messages: fixed point where readable, else scientific.
+pub(crate) fn length(x: f64) -> String {
+    if (1e-3..1e6).contains(&x.abs()) {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::descriptor::volume::Ball;
+    use crate::math::Vec3;
+
+    #[test]
+    fn ball_estimates_bound_the_real_tables() {
+        // The real tables: spans of 8 bytes and offsets of 16 per run.
+        for (radius, level) in [(3.0, 0), (20.0, 1), (40.0, 2), (80.0, 3), (300.0, 3)] {
+            let ball = Ball::at_level(radius, level);
+            let real = ball.table_bytes();
+            let estimate = ball_bytes(radius, level);
+            assert!(
+                estimate >= real,
+                "r {radius} level {level}: {estimate} < {real}"
+            );
+            assert!(
+                estimate <= 4 * real + 4096,
+                "r {radius} level {level}: {estimate} >> {real}"
+            );
+        }
+        assert_eq!(ball_bytes(f64::INFINITY, 5), u64::MAX);
+    }
+
+    #[test]
+    fn over_budget_names_the_largest_item() {
+        let mut e = MemoryEstimate::new();
+        e.add("ball tables", 3 << 30).add("bit grids", 1 << 20);
+        let err = e.check(1 << 30, || "lower the radius".into()).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("ball tables 3072 MiB"), "{text}");
+        assert!(text.contains("lower the radius"), "{text}");
+        assert!(e.check(4 << 30, String::new).is_ok());
+    }
+
+    #[test]
+    fn voxel_bytes_grow_with_the_grid() {
+        let spec = |n| GridSpec {
+            origin: Vec3::ZERO,
+            voxel_size: 1.0,
+            dims: [n, n, n],
+        };
+        let (small, large) = (voxel_bytes(&spec(64)), voxel_bytes(&spec(512)));
+        assert!(
+            large > 250 * small && large < 520 * small,
+            "{small} {large}"
+        );
+        // 5 bit grids at 1/8 byte a voxel and a pyramid of about 5/7.
+        let per_voxel = large as f64 / 512f64.powi(3);
+        assert!((1.3..1.5).contains(&per_voxel), "{per_voxel}");
+    }
+}
