@@ -42,6 +42,7 @@ pub(super) fn parse(
     resources: &dyn ResourceResolver,
     max_mesh_bytes: u64,
 ) -> Result<TriMesh> {
+    check_glb_header(bytes)?;
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
     validate(&gltf.document)?;
@@ -74,6 +75,27 @@ pub(super) fn parse(
         loader.visit(&node, &IDENTITY, 0)?;
     }
     TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
+}
+
+/// A GLB's 12-byte header, checked before the `gltf` crate reads it: 1.4.1
+/// subtracts the header from the declared length unchecked, which wraps
+/// (or panics, with overflow checks) for a length below 12.
+fn check_glb_header(bytes: &[u8]) -> Result<()> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let header = |m: String| Err(Error::malformed(Format::Gltf, "GLB header", m));
+    let Some(length) = bytes.get(8..12) else {
+        return header(format!("{} bytes, fewer than the header's 12", bytes.len()));
+    };
+    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]) as usize;
+    if length < 12 || length > bytes.len() {
+        return header(format!(
+            "declares {length} bytes, but the file has {} and the header alone is 12",
+            bytes.len()
+        ));
+    }
+    Ok(())
 }
 
 /// The crate's validation, minus one rule: POSITION accessors without
@@ -669,6 +691,18 @@ mod tests {
         let doc = tiny_gltf(&data_uri()).replace(r#""children":[1]"#, r#""children":[1,1]"#);
         let e = load(doc.as_bytes(), Some(Format::Gltf)).unwrap_err();
         assert!(e.to_string().contains("reached twice"), "{e}");
+    }
+
+    #[test]
+    fn a_glb_length_below_its_header_is_an_error() {
+        // Found by the load_gltf fuzz target (fuzz/regressions).
+        for length in [0u32, 11, 1000] {
+            let mut glb = b"glTF\x02\0\0\0".to_vec();
+            glb.extend_from_slice(&length.to_le_bytes());
+            let e = load(&glb, None).unwrap_err();
+            assert!(e.to_string().contains("GLB header"), "{e}");
+        }
+        assert!(load(b"glTF\x02\0", Some(Format::Gltf)).is_err());
     }
 
     #[test]
