@@ -136,17 +136,34 @@ class Handle {
   constructor(inner) {
     this.#inner = inner;
   }
-  /** The wasm object; throws once freed. */
+  /** The wasm object; throws once freed, or once the module trapped. */
   get inner() {
     if (!this.#inner) throw new Error(`fast-reject: this ${this.constructor.name} was freed`);
+    // After a trap even a getter would call into the broken module.
+    if (loaded?.broken) throw new Error(loaded.broken);
     return this.#inner;
   }
-  /** Releases the wasm memory now (it is not garbage-collected in time otherwise). */
+  /**
+   * Releases the wasm memory now (it is not garbage-collected in time
+   * otherwise). Never throws once the module trapped: the call that trapped
+   * left its handles marked as borrowed inside the module, so wasm-bindgen's
+   * free() would throw "attempted to take ownership of Rust value while it
+   * was borrowed", and in a `finally` that error would replace the one that
+   * says what happened.
+   */
   free() {
-    if (this.#inner) {
-      this.#inner.free();
+    const inner = this.#inner;
+    if (!inner) return;
+    if (loaded?.broken) {
       this.#inner = null;
+      // Detaches the JS object without calling in, and unregisters its
+      // finalizer, which would call into the broken module later; the
+      // memory goes with the module.
+      inner.__destroy_into_raw?.();
+      return;
     }
+    inner.free();
+    this.#inner = null;
   }
 }
 
