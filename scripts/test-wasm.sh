@@ -4,7 +4,8 @@
 #  1. the pure core's tests built for wasm32-wasip1, under wasmtime;
 #  2. the binding under wasm-bindgen-test, in Node and in headless Chromium,
 #     against the native command's result on the same scene;
-#  3. pkg/ (both builds) through its JS API in Node, the threaded build in
+#  3. pkg/ (both builds) through its JS API in Node (with the reliability
+#     issue's hostile inputs, and what a trap leaves), the threaded build in
 #     cross-origin isolated headless Chromium, the `fast-reject` bin scored
 #     by ../shared/bench/evaluate.py, and `npm pack` imported by a bundler;
 #  4. the viewer in www/ driven end to end in headless Chromium.
@@ -48,8 +49,12 @@ WASM_BINDGEN_USE_BROWSER=1 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-was
 step "build pkg/ (plain and threaded)"
 bash scripts/build-wasm.sh all
 
-step "JS API in Node, threaded build in Chromium"
-(cd js && node --test test/api.test.js test/browser.test.js)
+step "the hostile inputs of the reliability issue, for the JS tests"
+# js/test/hostile.test.js feeds every one to one module, then searches.
+cargo run --release --example hostile_files -- target/hostile
+
+step "JS API in Node (hostile inputs, a trap's aftermath), threaded build in Chromium"
+(cd js && node --test test/api.test.js test/hostile.test.js test/trap.test.js test/browser.test.js)
 
 step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)
