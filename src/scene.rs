@@ -47,13 +47,6 @@ impl SceneOptions {
         self
     }
 
-    /// Old name of [`SceneOptions::with_memory_budget`], kept while the
-    /// fuzz targets move over.
-    #[doc(hidden)]
-    pub const fn with_max_grid_bytes(self, bytes: u64) -> Self {
-        self.with_memory_budget(bytes)
-    }
-
     /// With another backend.
     pub const fn with_backend(mut self, backend: Backend) -> Self {
         self.backend = backend;

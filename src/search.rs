@@ -114,10 +114,6 @@ pub struct MatchOptions {
     pub clutter: ClutterPolicy,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
-    /// Unused: the scene's memory budget covers the template too. Kept
-    /// while the fuzz targets move over.
-    #[doc(hidden)]
-    pub max_grid_bytes: u64,
 }
 
 impl MatchOptions {
@@ -133,7 +129,6 @@ impl MatchOptions {
         verify_threshold: 0.85,
         clutter: ClutterPolicy::DEFAULT,
         backend: Backend::Parallel,
-        max_grid_bytes: 2 << 30,
     };
 
     fn validate(&self) -> Result<()> {

@@ -24,8 +24,8 @@ use fast_reject::template::TemplateSource;
 use libfuzzer_sys::fuzz_target;
 
 /// Below the fuzzer's RSS limit (2 GiB, with AddressSanitizer's overhead on
-/// top): a grid the library agrees to build must fit in it.
-const MAX_GRID_BYTES: u64 = 256 << 20;
+/// top): whatever the library agrees to build within this budget must fit.
+const MEMORY_BUDGET: u64 = 512 << 20;
 
 fuzz_target!(|data: &[u8]| {
     let Some((params, file)) = data.split_first_chunk::<8>() else {
@@ -43,7 +43,7 @@ fuzz_target!(|data: &[u8]| {
     let scene_options = SceneOptions::DEFAULT
         .with_resolution(resolution)
         .with_backend(Backend::Serial)
-        .with_max_grid_bytes(MAX_GRID_BYTES);
+        .with_memory_budget(MEMORY_BUDGET);
     let Ok(scene) = Scene::new(mesh, &scene_options) else {
         return;
     };
@@ -64,7 +64,6 @@ fuzz_target!(|data: &[u8]| {
 
     let mut opts = MatchOptions::DEFAULT;
     opts.backend = Backend::Serial;
-    opts.max_grid_bytes = MAX_GRID_BYTES;
     opts.descriptor = match params[6] % 4 {
         0 => DescriptorKind::VolumeHarmonics,
         1 => DescriptorKind::Volume,

@@ -97,10 +97,10 @@ test('case 1: a glTF buffer outside the model is refused by name (the package re
   }
 });
 
-test('case 2: a sparse accessor without a buffer view cannot declare 10^15 elements', async (t) => {
-  const bytes = await file('sparse-1e15.gltf');
-  refused(t, 'Scene.fromBytes(sparse-1e15.gltf)', () => Scene.fromBytes(bytes), /no buffer view/);
-  refused(t, 'Template.fromBytes(sparse-1e15.gltf)', () => Template.fromBytes(bytes), /no buffer view/);
+test('case 2: a sparse accessor without a buffer view cannot declare 10^9 elements', async (t) => {
+  const bytes = await file('sparse-1e9.gltf');
+  refused(t, 'Scene.fromBytes(sparse-1e9.gltf)', () => Scene.fromBytes(bytes), /no buffer view/);
+  refused(t, 'Template.fromBytes(sparse-1e9.gltf)', () => Template.fromBytes(bytes), /no buffer view/);
 });
 
 test('case 3: 2000 instances of a 20000-triangle mesh are refused', async (t) => {

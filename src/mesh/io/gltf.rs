@@ -57,6 +57,9 @@ pub(super) fn parse(
         positions: Vec::new(),
         triangles: Vec::new(),
         parts: Vec::new(),
+        placements: Vec::new(),
+        placed_vertices: 0,
+        placed_triangles: 0,
     };
     let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -74,6 +77,7 @@ pub(super) fn parse(
     for node in roots {
         loader.visit(&node, &IDENTITY, 0)?;
     }
+    loader.place_all();
     TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
 }
 
@@ -165,6 +169,10 @@ struct Loader<'a> {
     triangles: Vec<[u32; 3]>,
     /// One per placed mesh, so that instances of a mesh are known as such.
     parts: Vec<Part>,
+    /// Each node's world transform and mesh, to be placed once all are counted.
+    placements: Vec<(Mat4, usize)>,
+    placed_vertices: usize,
+    placed_triangles: usize,
 }
 
 impl Loader<'_> {
@@ -192,29 +200,45 @@ impl Loader<'_> {
                 let decoded = self.decode_mesh(&mesh)?;
                 self.meshes.insert(mesh.index(), decoded);
             }
+            // Each node places a copy: all are counted before any is made,
+            // so that a small file instancing a mesh many times stops here
+            // having allocated nothing for them.
             let m = &self.meshes[&mesh.index()];
-            // Each node places a copy: count it before copying, so that a
-            // small file instancing a mesh many times stops here.
-            let vertices = self.positions.len() + m.positions.len();
-            let triangles = self.triangles.len() + m.triangles.len();
-            check_size(vertices, triangles, self.max_mesh_bytes)?;
+            self.placed_vertices += m.positions.len();
+            self.placed_triangles += m.triangles.len();
+            check_size(
+                self.placed_vertices,
+                self.placed_triangles,
+                self.max_mesh_bytes,
+            )?;
+            self.placements.push((world, mesh.index()));
+        }
+        for child in node.children() {
+            self.visit(&child, &world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    /// Copies every placed mesh into world space, after [`check_size`]
+    /// accepted their total.
+    fn place_all(&mut self) {
+        self.positions.reserve_exact(self.placed_vertices);
+        self.triangles.reserve_exact(self.placed_triangles);
+        for (world, mesh) in std::mem::take(&mut self.placements) {
+            let m = &self.meshes[&mesh];
             let base = self.positions.len() as u32;
             self.parts.push(Part {
                 first_vertex: base,
                 vertex_count: m.positions.len() as u32,
                 first_triangle: self.triangles.len() as u32,
                 triangle_count: m.triangles.len() as u32,
-                source: mesh.index() as u32,
+                source: mesh as u32,
             });
             self.positions
                 .extend(m.positions.iter().map(|&p| transform(&world, p)));
             self.triangles
                 .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
         }
-        for child in node.children() {
-            self.visit(&child, &world, depth + 1)?;
-        }
-        Ok(())
     }
 
     fn decode_mesh(&mut self, mesh: &gltf::Mesh) -> Result<LocalMesh> {
@@ -345,6 +369,30 @@ impl Loader<'_> {
     fn read_elements(&mut self, acc: &gltf::Accessor, at: &str) -> Result<Vec<u8>> {
         let elem = acc.size();
         let count = acc.count();
+        if acc.view().is_none() {
+            if acc.sparse().is_none() {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    format!(
+                        "accessor {} has neither a buffer view nor sparse values",
+                        acc.index()
+                    ),
+                ));
+            }
+            let most = self.input_len.saturating_mul(UNSTORED_ELEMENTS_PER_BYTE);
+            if count > most {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    format!(
+                        "accessor {} has no buffer view but declares {count} elements, more than the {most} a file of {} bytes may leave unstored",
+                        acc.index(),
+                        self.input_len
+                    ),
+                ));
+            }
+        }
         let total = count
             .checked_mul(elem)
             .filter(|&t| t <= isize::MAX as usize / 2)
@@ -352,28 +400,6 @@ impl Loader<'_> {
         let mut out = match acc.view() {
             None => {
                 // No view: zeros, unless sparse values fill some in.
-                if acc.sparse().is_none() {
-                    return Err(Error::malformed(
-                        Format::Gltf,
-                        at,
-                        format!(
-                            "accessor {} has neither a buffer view nor sparse values",
-                            acc.index()
-                        ),
-                    ));
-                }
-                let most = self.input_len.saturating_mul(UNSTORED_ELEMENTS_PER_BYTE);
-                if count > most {
-                    return Err(Error::malformed(
-                        Format::Gltf,
-                        at,
-                        format!(
-                            "accessor {} has no buffer view but declares {count} elements, more than the {most} a file of {} bytes may leave unstored",
-                            acc.index(),
-                            self.input_len
-                        ),
-                    ));
-                }
                 vec![0u8; total]
             }
             Some(view) => {
