@@ -98,13 +98,30 @@ pub(crate) fn for_each_touched_voxel(
         } else {
             piece[0] = strip[cur_strip];
         }
-        // piece[0] holds the strip of column cu; cut it along v.
+        // piece[0] holds the strip of column cu; cut it along v, over the
+        // strip's own extent only: a cut below the strip leaves it as it is,
+        // and nothing is left past it, so the columns of the triangle's
+        // bounding box that the strip misses cost nothing (a long thin
+        // triangle lying diagonally would otherwise cost its box's area).
         if piece[0].n < 3 {
             continue;
         }
+        let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        for q in &piece[0].p[..piece[0].n] {
+            vmin = vmin.min(q[1]);
+            vmax = vmax.max(q[1]);
+        }
+        // The first column whose upper line reaches the strip (a strip
+        // that only touches that line yields the same degenerate piece as
+        // the full sweep), and the last column that it reaches.
+        let first = clamp(vmin.ceil() - 1.0, v).max(lo[v]);
+        let last = clamp(vmax, v).min(hi[v]);
+        if first > last {
+            continue;
+        }
         let mut cur = 0;
-        for cv in lo[v]..=hi[v] {
-            let range = if cv < hi[v] {
+        for cv in first..=last {
+            let range = if cv < last {
                 let [a, b] = &mut piece;
                 let (src, above) = if cur == 0 { (&*a, b) } else { (&*b, a) };
                 split(src, 1, (cv + 1) as f64, &mut below, above);
@@ -326,6 +343,45 @@ mod tests {
                         let v = [x, y, z];
                         let ours = got.binary_search(&v).is_ok();
                         if ours {
+                            assert!(
+                                sat_overlap(&tri, v, 0.5),
+                                "marked {v:?}, which {tri:?} misses"
+                            );
+                        } else {
+                            assert!(
+                                !sat_overlap(&tri, v, 0.5 - 1e-9),
+                                "missed {v:?} for {tri:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn long_thin_triangles_meet_the_oracle() {
+        // Slivers lying diagonally: each strip spans few of the bounding
+        // box's columns.
+        let mut s: u64 = 777;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let dims = [30, 30, 30];
+        for _ in 0..60 {
+            let a = Vec3::new(1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd());
+            let b = Vec3::new(1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd());
+            let c = a + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+            let tri = [a, b, c];
+            let got = touched(tri, dims);
+            for x in 0..30 {
+                for y in 0..30 {
+                    for z in 0..30 {
+                        let v = [x, y, z];
+                        if got.binary_search(&v).is_ok() {
                             assert!(
                                 sat_overlap(&tri, v, 0.5),
                                 "marked {v:?}, which {tri:?} misses"
