@@ -5,7 +5,7 @@
 #  2. the binding under wasm-bindgen-test, in Node and in headless Chromium,
 #     against the native command's result on the same scene;
 #  3. pkg/ (both builds) through its JS API in Node (with the reliability
-#     issue's hostile inputs, and what a trap leaves), the threaded build in
+#     issue's hostile inputs, scenes held past the memory), the threaded build in
 #     cross-origin isolated headless Chromium, the `fast-reject` bin scored
 #     by ../shared/bench/evaluate.py, and `npm pack` imported by a bundler;
 #  4. the viewer in www/ driven end to end in headless Chromium.
@@ -53,8 +53,8 @@ step "the hostile inputs of the reliability issue, for the JS tests"
 # js/test/hostile.test.js feeds every one to one module, then searches.
 cargo run --release --example hostile_files -- target/hostile
 
-step "JS API in Node (hostile inputs, a trap's aftermath), threaded build in Chromium"
-(cd js && node --test test/api.test.js test/hostile.test.js test/trap.test.js test/browser.test.js)
+step "JS API in Node (hostile inputs, scenes held past the memory), threaded build in Chromium"
+(cd js && node --test test/api.test.js test/hostile.test.js test/held-scenes.test.js test/browser.test.js)
 
 step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)

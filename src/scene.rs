@@ -3,7 +3,7 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
-use crate::budget::{MemoryEstimate, mesh_bytes, voxel_bytes};
+use crate::budget::{MemoryEstimate, mesh_bytes, surface_bytes, voxel_bytes};
 use crate::clock::now_ms;
 use crate::error::Result;
 use crate::exec::Backend;
@@ -125,7 +125,10 @@ impl Scene {
             let grid = voxelize(&self.mesh, &self.spec, self.backend);
             let skin_grid = skin(&grid, self.backend);
             let near_surface = dilate(&skin_grid, self.backend);
-            let skin = skin_grid.iter_ones().collect();
+            // Sized exactly: a messy scene's skin can run to tens of
+            // millions of voxels, and doubling would take twice that.
+            let mut skin = Vec::with_capacity(skin_grid.count_ones() as usize);
+            skin.extend(skin_grid.iter_ones());
             Voxels {
                 solid: Solid::new(grid),
                 skin,
@@ -175,6 +178,29 @@ impl Scene {
     /// The memory budget in bytes for the scene and its searches.
     pub fn memory_budget(&self) -> u64 {
         self.memory_budget
+    }
+
+    /// Changes the memory budget for the searches to come (a host whose
+    /// free memory changes, such as a wasm module holding other scenes).
+    pub fn set_memory_budget(&mut self, bytes: u64) {
+        self.memory_budget = bytes;
+    }
+
+    /// The estimate of what the scene has built so far: its mesh, and its
+    /// voxels or welded surface once built.
+    pub fn built_bytes(&self) -> u64 {
+        let mut estimate = MemoryEstimate::new();
+        estimate.add(
+            "the mesh",
+            mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len()),
+        );
+        if self.is_voxelized() {
+            estimate.add("voxel grids and count pyramid", voxel_bytes(&self.spec));
+        }
+        if self.surface.get().is_some() {
+            estimate.add("welded surface", surface_bytes(self.mesh.triangles().len()));
+        }
+        estimate.total()
     }
 
     /// What the scene holds or will hold for voxel descriptors: its mesh,

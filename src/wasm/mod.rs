@@ -12,6 +12,7 @@
 //! carrying the core's message; grids are capped below what the module's
 //! memory can hold.
 
+mod heap;
 mod options;
 
 use std::ops::ControlFlow;
@@ -135,8 +136,8 @@ fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), Js
     ensure_started();
     let start = now_ms();
     let format = options::parse_format(format.as_deref())?;
-    let mesh =
-        load_within(bytes, format, &NoResources, options::memory_budget() / 2).map_err(js_error)?;
+    let mesh = load_within(bytes, format, &NoResources, options::memory_budget(0) / 2)
+        .map_err(js_error)?;
     Ok((mesh, now_ms() - start))
 }
 
@@ -159,8 +160,9 @@ impl SceneHandle {
         format: Option<String>,
         resolution: Option<f64>,
     ) -> Result<SceneHandle, JsError> {
-        let options = scene_options(resolution)?;
         let (mesh, load_ms) = parse_mesh(bytes, format)?;
+        // After parsing: the budget is what is free with the mesh in memory.
+        let options = scene_options(resolution)?;
         let scene = Scene::new(mesh, &options).map_err(js_error)?;
         Ok(SceneHandle { scene, load_ms })
     }
@@ -211,6 +213,11 @@ impl SceneHandle {
             let options = scene_options(Some(resolution as f64))?;
             self.scene = Scene::new(self.scene.mesh().clone(), &options).map_err(js_error)?;
         }
+        // Whatever else the page holds (other scenes, templates) is live
+        // heap: the search may use only what is free, besides what the
+        // scene has built already.
+        let budget = options::memory_budget(self.scene.built_bytes());
+        self.scene.set_memory_budget(budget);
         let mut progress = Progress {
             callback: on_layer,
             failure: None,

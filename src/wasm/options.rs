@@ -36,17 +36,22 @@ pub fn memory_limit_bytes() -> u64 {
     }
 }
 
-/// The memory budget of a scene and its searches: half of what the module
-/// may grow to. The core's estimates cover its large structures; the input
-/// bytes copied in from JavaScript, the report and the allocator's slack
-/// come on top, and a failed allocation would trap the module.
-pub fn memory_budget() -> u64 {
-    memory_limit_bytes() / 2
+/// The memory budget of a scene and its searches, given that `counted`
+/// of the live heap is already in the core's estimate for it: at most half
+/// of what the module may grow to, and no more than is free now (other
+/// scenes and templates the page holds count), keeping an eighth of the
+/// module for what the estimates leave out (the input bytes copied in from
+/// JavaScript, the report, the allocator's slack). A failed allocation
+/// would trap the module.
+pub fn memory_budget(counted: u64) -> u64 {
+    let limit = memory_limit_bytes();
+    let free = (limit - limit / 8).saturating_sub(super::heap::live_bytes());
+    (limit / 2).min(free.saturating_add(counted))
 }
 
 /// Scene options for a resolution given from JavaScript (default 512).
 pub fn scene_options(resolution: Option<f64>) -> Result<SceneOptions, JsError> {
-    let mut options = SceneOptions::DEFAULT.with_memory_budget(memory_budget());
+    let mut options = SceneOptions::DEFAULT.with_memory_budget(memory_budget(0));
     if let Some(value) = resolution {
         options = options.with_resolution(whole_number("resolution", value, 8, 16384)?);
     }

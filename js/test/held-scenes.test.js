@@ -1,0 +1,68 @@
+// Scenes a page keeps alive, in a process of their own: each keeps its
+// voxel grids once searched, so enough of them would fill the module's
+// memory, and a failed allocation traps the module for good. The binding
+// counts the live heap: a scene or a search that would not fit in what is
+// free is refused with a typed error, the module stays usable, and freeing
+// scenes makes room again.
+import assert from 'node:assert/strict';
+import { readFile } from 'node:fs/promises';
+import { test } from 'node:test';
+
+import { Scene, Template, init, memoryBytes } from '../../pkg/index.js';
+
+/** A binary STL of the unit tetrahedron (corner at the origin). */
+function tetrahedron() {
+  const [o, x, y, z] = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]];
+  const triangles = [[o, y, x], [o, x, z], [o, z, y], [x, y, z]];
+  const view = new DataView(new ArrayBuffer(84 + 50 * triangles.length));
+  view.setUint32(80, triangles.length, true);
+  triangles.forEach((corners, i) => {
+    corners.flat().forEach((c, k) => view.setFloat32(84 + 50 * i + 12 + 4 * k, c, true));
+  });
+  return new Uint8Array(view.buffer);
+}
+
+test('scenes held past the module memory are refused, never a trap', { timeout: 300_000 }, async (t) => {
+  const info = await init();
+  const sceneBytes = tetrahedron();
+  // At 1024 voxels a scene keeps about 270 MiB once searched; the search
+  // itself is refused (its ball tables), after voxelizing.
+  const template = Template.fromSelection([0, 0, 0], 0.6);
+  const held = [];
+  let refusal;
+  try {
+    while (held.length < 32 && !refusal) {
+      let scene;
+      try {
+        scene = Scene.fromBytes(sceneBytes, { resolution: 1024 });
+        held.push(scene);
+        scene.match(template);
+      } catch (error) {
+        assert.ok(!(error.cause instanceof WebAssembly.RuntimeError), `a trap: ${error.message}`);
+        if (/not enough memory/.test(error.message) && /budget of/.test(error.message) && !/ball tables/.test(error.message)) {
+          refusal = error;
+        } else {
+          assert.match(error.message, /not enough memory/);
+        }
+      }
+    }
+    t.diagnostic(
+      `${held.length} scenes held, module at ${Math.round(memoryBytes() / 2 ** 20)} of ${info.memoryLimitBytes / 2 ** 20} MiB: ${refusal?.message}`,
+    );
+    assert.ok(refusal, 'holding 32 scenes at resolution 1024 was never refused');
+    assert.ok(memoryBytes() <= info.memoryLimitBytes);
+  } finally {
+    for (const scene of held) scene.free();
+  }
+  // With the scenes freed, the same module searches the demo.
+  const demo = new URL('../../assets/demo/', import.meta.url);
+  const scene = Scene.fromBytes(await readFile(new URL('scene.glb', demo)));
+  const mug = Template.fromBytes(await readFile(new URL('template.glb', demo)));
+  try {
+    assert.equal(scene.match(mug).instances.length, 3);
+  } finally {
+    scene.free();
+    mug.free();
+    template.free();
+  }
+});
