@@ -10,6 +10,7 @@
 use std::fmt;
 
 use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
 use crate::voxel::{GridSpec, MAX_LEVEL};
 
 /// Bit grids alive at once while voxelizing (surface, interior, solid,
@@ -55,6 +56,22 @@ pub(crate) fn voxel_bytes(spec: &GridSpec) -> u64 {
     grids
         .saturating_add(pyramid)
         .saturating_add(2 * faces * BYTES_PER_SKIN_VOXEL)
+}
+
+/// The voxelizer's work for `mesh` on voxels of `voxel_size`: the
+/// triangles' area projected on the three axis planes, in voxel faces.
+/// It bounds the surface pass (a triangle is swept along its dominant axis,
+/// one column per face) and the fill's column crossings, and it is known in
+/// O(triangles) before anything is built.
+pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64) -> f64 {
+    let area: f64 = (0..mesh.triangles().len())
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            let n = (b - a).cross(c - a);
+            (n.x.abs() + n.y.abs() + n.z.abs()) / 2.0
+        })
+        .sum();
+    area / (voxel_size * voxel_size)
 }
 
 /// Bytes of the cascade's state for `candidates` points.
@@ -183,6 +200,31 @@ mod tests {
             );
         }
         assert_eq!(ball_bytes(f64::INFINITY, 5), u64::MAX);
+    }
+
+    #[test]
+    fn voxel_work_is_the_projected_area_in_voxel_faces() {
+        // A unit square in the xy plane, and the same square tilted 45
+        // degrees about x: its projections cover 1/sqrt(2) on two planes.
+        let flat = TriMesh::new(
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+        .unwrap();
+        assert!((voxel_work(&flat, 0.1) - 100.0).abs() < 1e-9);
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let tilted = TriMesh::new(
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, h, h], [0.0, h, h]],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+        .unwrap();
+        let expected = 2.0 * f64::from(h) * 100.0;
+        assert!((voxel_work(&tilted, 0.1) - expected).abs() < 1e-4);
     }
 
     #[test]

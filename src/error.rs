@@ -155,6 +155,25 @@ pub enum Error {
         advice: String,
     },
 
+    /// Voxelizing would take longer than the work limit allows: the
+    /// triangles' area is huge next to a voxel (large triangles crossing
+    /// the whole scene, many times over).
+    #[error(
+        "the {what}'s triangles cover about {work:.3e} voxel faces at resolution {resolution}, above the limit of {limit:.3e} (a few seconds of voxelizing); {advice}"
+    )]
+    TooMuchWork {
+        /// "scene" or "template".
+        what: &'static str,
+        /// The projected area in voxel faces.
+        work: f64,
+        /// The limit.
+        limit: f64,
+        /// The scene's resolution.
+        resolution: u32,
+        /// What would work.
+        advice: String,
+    },
+
     /// The template is too small for the voxel size to describe it.
     #[error(
         "the template's smallest radius is {radius_voxels:.2} voxels, below the {min_voxels} needed; {advice}"

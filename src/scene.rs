@@ -3,9 +3,9 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
-use crate::budget::{MemoryEstimate, mesh_bytes, surface_bytes, voxel_bytes};
+use crate::budget::{MemoryEstimate, mesh_bytes, surface_bytes, voxel_bytes, voxel_work};
 use crate::clock::now_ms;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
@@ -23,6 +23,11 @@ pub struct SceneOptions {
     /// what would pass it is refused before it is allocated (see
     /// [`crate::budget`]). Default: 2 GiB.
     pub memory_budget: u64,
+    /// Refuse to voxelize a mesh whose triangles, projected on the three
+    /// axis planes, cover more voxel faces than this (see
+    /// [`crate::budget`]): the voxelizer's time follows it. Default: 2^27,
+    /// about 5 s on one core; the shared scenes need under 10^6 at 512.
+    pub max_voxel_work: f64,
     /// Serial or parallel. Default: parallel.
     pub backend: Backend,
 }
@@ -32,6 +37,7 @@ impl SceneOptions {
     pub const DEFAULT: SceneOptions = SceneOptions {
         resolution: 512,
         memory_budget: 2 << 30,
+        max_voxel_work: (1u64 << 27) as f64,
         backend: Backend::Parallel,
     };
 
@@ -44,6 +50,12 @@ impl SceneOptions {
     /// With another memory budget.
     pub const fn with_memory_budget(mut self, bytes: u64) -> Self {
         self.memory_budget = bytes;
+        self
+    }
+
+    /// With another limit on the voxelizer's work.
+    pub const fn with_max_voxel_work(mut self, faces: f64) -> Self {
+        self.max_voxel_work = faces;
         self
     }
 
@@ -67,6 +79,7 @@ pub struct Scene {
     resolution: u32,
     backend: Backend,
     memory_budget: u64,
+    max_voxel_work: f64,
     voxels: OnceLock<Voxels>,
     surface: OnceLock<(Surface, f64)>,
 }
@@ -84,6 +97,13 @@ impl Scene {
     /// memory budget, and voxelizes on first use.
     pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
+        check_voxel_work(
+            "scene",
+            &mesh,
+            spec.voxel_size,
+            options.resolution,
+            options.max_voxel_work,
+        )?;
         let budget = options.memory_budget;
         let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
         let fits = |spec: &GridSpec| {
@@ -114,6 +134,7 @@ impl Scene {
             resolution: options.resolution,
             backend: options.backend,
             memory_budget: budget,
+            max_voxel_work: options.max_voxel_work,
             voxels: OnceLock::new(),
             surface: OnceLock::new(),
         })
@@ -178,6 +199,11 @@ impl Scene {
     /// The memory budget in bytes for the scene and its searches.
     pub fn memory_budget(&self) -> u64 {
         self.memory_budget
+    }
+
+    /// The limit on the voxelizer's work (a template model is held to it too).
+    pub fn max_voxel_work(&self) -> f64 {
+        self.max_voxel_work
     }
 
     /// Changes the memory budget for the searches to come (a host whose
@@ -257,6 +283,35 @@ impl std::fmt::Debug for Scene {
             .field("voxelized", &self.voxels.get().is_some())
             .finish()
     }
+}
+
+/// Fails when voxelizing `mesh` on voxels of `voxel_size` would pass
+/// `limit` ([`voxel_work`]); the work falls with the square of the
+/// resolution, so the message names the one that fits.
+pub(crate) fn check_voxel_work(
+    what: &'static str,
+    mesh: &TriMesh,
+    voxel_size: f64,
+    resolution: u32,
+    limit: f64,
+) -> Result<()> {
+    let work = voxel_work(mesh, voxel_size);
+    if work <= limit {
+        return Ok(());
+    }
+    let fits = (f64::from(resolution) * (limit / work).sqrt()).floor();
+    let advice = if fits >= 8.0 {
+        format!("lower the resolution to at most {fits} (the work falls with its square)")
+    } else {
+        "no resolution fits: the triangles are too large and too many; simplify the mesh".into()
+    };
+    Err(Error::TooMuchWork {
+        what,
+        work,
+        limit,
+        resolution,
+        advice,
+    })
 }
 
 /// The set voxel of `points` whose centre is nearest to world point `p`.

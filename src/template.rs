@@ -22,7 +22,7 @@ use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::surface::Surface;
 use crate::mesh::{TriMesh, minimal_bounding_sphere};
-use crate::scene::{Scene, nearest_voxel};
+use crate::scene::{Scene, check_voxel_work, nearest_voxel};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
 
 /// Below this many voxels, the first layer cannot describe anything.
@@ -82,6 +82,13 @@ impl Template {
                 let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
                 check_extent(2.0 * sphere.radius, scene, false)?;
                 let spec = GridSpec::around(mesh.bounds(), voxel_size)?;
+                check_voxel_work(
+                    "template",
+                    mesh,
+                    voxel_size,
+                    scene.resolution(),
+                    scene.max_voxel_work(),
+                )?;
                 let mut estimate = scene.voxel_estimate();
                 estimate
                     .add(

@@ -279,6 +279,22 @@ fn case_6_work_is_bounded() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Triangles spanning the scene: the voxelizer's work is refused before
+    // it starts, naming the resolution that fits.
+    let mesh = load(&hostile::cube_spanning_tents(1000), None).unwrap();
+    let e = Scene::new(mesh.clone(), &SceneOptions::DEFAULT).unwrap_err();
+    assert!(matches!(e, Error::TooMuchWork { .. }), "{e}");
+    let fits: u32 = e
+        .to_string()
+        .split("at most ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(Scene::new(mesh, &SceneOptions::DEFAULT.with_resolution(fits)).is_ok());
 }
 
 /// Case 7: a template too small for any resolution says so.

@@ -143,3 +143,20 @@ pub fn tiny_part_in_a_wide_scene() -> Vec<u8> {
         [[1e6, 0.0, 0.0], [1e6 + 1.0, 0.0, 0.0], [1e6, 1.0, 0.0]],
     ])
 }
+
+/// `n` pairs of triangles spanning a 200-wide cube corner to corner: a
+/// small file whose surface is hundreds of millions of voxel faces.
+pub fn cube_spanning_tents(n: usize) -> Vec<u8> {
+    let c = |i: usize| {
+        let b = [i & 1, (i >> 1) & 1, (i >> 2) & 1];
+        b.map(|v| if v == 1 { 100.0 } else { -100.0f32 })
+    };
+    let triangles: Vec<[[f32; 3]; 3]> = (0..n)
+        .flat_map(|k| {
+            let (a, b) = (c(k % 8), c(7 - k % 8));
+            let (p, q) = (c((k + 1) % 8), c((k + 3) % 8));
+            [[a, b, p], [b, a, q]]
+        })
+        .collect();
+    stl(&triangles)
+}
