@@ -109,6 +109,22 @@ function call(f) {
   }
 }
 
+/**
+ * Refuses a file that could not be copied into the module and parsed there:
+ * the copy needs its size, and a parsed mesh can take up to three times a
+ * text file's size while it grows. A failed allocation would trap the
+ * module, so the check comes first.
+ */
+function checkFits(glue, data, what) {
+  const free = glue.freeBytes();
+  if (data.byteLength * 4 > free) {
+    const mib = (n) => `${Math.round(n / 2 ** 20)} MiB`;
+    throw new Error(
+      `fast-reject: the ${what} (${mib(data.byteLength)}) does not fit in the module's free memory (${mib(free)}; a file may take a quarter of it): free other scenes and templates, or use a smaller file`,
+    );
+  }
+}
+
 /** A Uint8Array view of bytes given as Uint8Array, ArrayBuffer or any typed array. */
 function asBytes(bytes, what) {
   if (bytes instanceof Uint8Array) return bytes;
@@ -173,7 +189,12 @@ export class Scene extends Handle {
     const data = asBytes(bytes, 'scene');
     const fmt = optionalString(format, 'format');
     const res = optionalNumber(resolution, 'resolution');
-    return new Scene(call((glue) => glue.Scene.fromBytes(data, fmt, res)));
+    return new Scene(
+      call((glue) => {
+        checkFits(glue, data, 'scene');
+        return glue.Scene.fromBytes(data, fmt, res);
+      }),
+    );
   }
   get resolution() {
     return this.inner.resolution;
@@ -203,7 +224,12 @@ export class Template extends Handle {
   static fromBytes(bytes, { format } = {}) {
     const data = asBytes(bytes, 'template');
     const fmt = optionalString(format, 'format');
-    return new Template(call((glue) => glue.Template.fromBytes(data, fmt)));
+    return new Template(
+      call((glue) => {
+        checkFits(glue, data, 'template');
+        return glue.Template.fromBytes(data, fmt);
+      }),
+    );
   }
   static fromSelection(center, radius) {
     if (!center || center.length !== 3) {

@@ -51,6 +51,11 @@ test('scenes held past the module memory are refused, never a trap', { timeout: 
     );
     assert.ok(refusal, 'holding 32 scenes at resolution 1024 was never refused');
     assert.ok(memoryBytes() <= info.memoryLimitBytes);
+    // A file larger than what is left could not even be copied in: a
+    // failed allocation there would trap, so it is refused first.
+    const huge = new Uint8Array(1536 * 2 ** 20);
+    assert.throws(() => Scene.fromBytes(huge), /does not fit in the module's free memory/);
+    assert.throws(() => Template.fromBytes(huge), /does not fit in the module's free memory/);
   } finally {
     for (const scene of held) scene.free();
   }

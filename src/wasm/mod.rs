@@ -125,6 +125,14 @@ pub fn memory_limit() -> f64 {
     memory_limit_bytes() as f64
 }
 
+/// Bytes the heap may still grow by: the module's limit less what is live.
+/// The JS wrapper refuses input bytes that could not be copied in and
+/// parsed within it, since a failed allocation would trap the module.
+#[wasm_bindgen(js_name = freeBytes)]
+pub fn free_bytes() -> f64 {
+    memory_limit_bytes().saturating_sub(heap::live_bytes()) as f64
+}
+
 /// A core error as a JS `Error` with the core's message.
 fn js_error(error: Error) -> JsError {
     JsError::new(&error.to_string())
