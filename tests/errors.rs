@@ -211,7 +211,9 @@ fn a_selection_sphere_that_touches_no_surface_is_an_error() {
 #[test]
 fn a_grid_beyond_the_memory_budget_is_an_error() {
     let mesh = uv_sphere(Vec3::ZERO, 1.0, 16, 32);
-    let e = Scene::new(mesh.clone(), &SceneOptions::DEFAULT.with_resolution(16384)).unwrap_err();
+    // The voxelizer's work limit (tests/hostile.rs) would refuse 16384 first.
+    let options = SceneOptions::DEFAULT.with_max_voxel_work(f64::INFINITY);
+    let e = Scene::new(mesh.clone(), &options.with_resolution(16384)).unwrap_err();
     assert!(matches!(e, Error::OverBudget { .. }), "{e}");
     assert!(
         e.to_string().contains("lower the resolution to at most"),
