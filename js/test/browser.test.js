@@ -27,9 +27,11 @@ test('threaded build in Chromium: two threads, same instances as plain', { timeo
 });
 
 test('threaded build near its memory cap: a large grid runs, a larger one is an Error', { timeout: 300_000 }, async () => {
-  // The threaded build has 1 GiB of shared memory; the grid cap (a quarter
-  // of it) must leave room for everything else a search allocates.
-  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 1100 }]);
+  // The threaded build has 1 GiB of shared memory; the memory budget (half
+  // of it, and no more than is free) counts everything a search builds,
+  // with room to spare: zoo-bunny at 900 needs about 510 MiB by its
+  // estimate (1100, which needs about 870, once ran in 536 MB natively).
+  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 900 }]);
   assert.equal(large.info.memoryLimitBytes, 2 ** 30);
   assert.ok(large.instances.length > 0);
   assert.ok(large.memoryBytes < 2 ** 30);
