@@ -13,8 +13,7 @@ mod common;
 
 use fast_reject::descriptor::OnionDescriptor;
 use fast_reject::descriptor::curvature::CurvatureDescriptor;
-use fast_reject::mesh::VertexGrid;
-use fast_reject::mesh::surface::Surface;
+use fast_reject::descriptor::curvature::{Surface, VertexGrid};
 use fast_reject::scene::SceneOptions;
 use fast_reject::search::MatchOptions;
 use fast_reject::template::SurfaceTemplate;

@@ -180,8 +180,8 @@ pub(crate) fn length(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::descriptor::volume::Ball;
     use crate::math::Vec3;
+    use crate::voxel::Ball;
 
     #[test]
     fn ball_estimates_bound_the_real_tables() {

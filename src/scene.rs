@@ -5,11 +5,11 @@
 
 use crate::budget::{MemoryEstimate, mesh_bytes, surface_bytes, voxel_bytes, voxel_work};
 use crate::clock::now_ms;
+use crate::descriptor::curvature::Surface;
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
-use crate::mesh::surface::Surface;
 use crate::voxel::{Grid, GridSpec, Solid, dilate, skin, voxelize};
 use std::sync::OnceLock;
 

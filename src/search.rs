@@ -8,7 +8,7 @@ use crate::budget::{
 };
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
-use crate::descriptor::curvature::{Layer, handedness};
+use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{
@@ -18,8 +18,6 @@ use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::instances::{Instance, Verified, group, local_bests};
 use crate::math::Vec3;
-use crate::mesh::VertexGrid;
-use crate::mesh::surface::Surface;
 use crate::scene::Scene;
 use crate::template::{SurfaceTemplate, Template, TemplateSource};
 use crate::verify::{Verifier, moment_level};
@@ -652,87 +650,6 @@ fn check_surface_search(scene: &Scene, source: &TemplateSource) -> Result<()> {
             mesh.triangles().len()
         )
     })
-}
-
-/// How much looser the sample pass's threshold is than the final pass's. A
-/// sample vertex lies up to a cell's diagonal from the best point of an
-/// occurrence, and the distance rises steeply away from it. At spacing 0.5,
-/// over 48 turnings of remeshed-cow and twisted-homer and 16 of
-/// fused-homer, the best sample vertex within reach of
-/// an occurrence needed up to 3.8 times the threshold on twisted-homer, 2.6
-/// on fused-homer and 7.2 on remeshed-cow (where the best point itself is
-/// at 0.8 of it); 10 would cover them all but keeps so much of zoo-bunny
-/// that the final pass sees 109k of its 168k vertices.
-const SAMPLE_SLACK: f64 = 5.0;
-
-/// The final pass's candidates: every vertex within this many cells of a
-/// sample survivor (the best point of an occurrence is within a cell's
-/// diagonal, 1.7 cells, of its cell's sample vertex).
-const SAMPLE_REACH: f64 = 2.0;
-
-/// The first pass's candidates: one vertex per grid cell.
-struct VertexSample {
-    grid: VertexGrid,
-    vertices: Vec<u32>,
-}
-
-impl VertexSample {
-    /// None where sampling is off (`spacing` 0), impossible (a surface
-    /// spanning more cells than a key holds) or would save little (the
-    /// sample keeps more than half the vertices: a coarse mesh).
-    fn of(surface: &Surface, spacing: f64) -> Option<VertexSample> {
-        let grid = VertexGrid::new(surface, spacing)?;
-        let vertices = grid.sample(surface);
-        (vertices.len() * 2 <= grid.vertex_count()).then_some(VertexSample { grid, vertices })
-    }
-}
-
-/// Tells a point from its mirror twin, which has the same Gaussian
-/// curvatures (the other flank of a symmetric shape): the innermost pair of
-/// layers whose centroids turn clearly one way around the template's normal
-/// must turn the same way around the candidate's. "Clearly": both centroids
-/// lie off the normal by at least [`MirrorTest::OFFSET`] of their radius
-/// (closer, their direction is tessellation noise) and [`handedness`] is at
-/// least [`MirrorTest::TURN`]. Where no pair qualifies, the template is
-/// about mirror-symmetric at c_T and has no twin to tell apart.
-struct MirrorTest {
-    /// Layers (inner, outer) and the template's sign, if any pair is clear.
-    pair: Option<(usize, usize, f64)>,
-}
-
-impl MirrorTest {
-    const OFFSET: f64 = 0.05;
-    const TURN: f64 = 0.5;
-
-    fn new(normal: Vec3, layers: &[Layer], radii: &[f64]) -> MirrorTest {
-        let off_normal = |i: usize| {
-            let m = layers[i].centroid;
-            (m - normal * normal.dot(m)).norm() >= Self::OFFSET * radii[i]
-        };
-        let k = layers.len();
-        let pair = (1..k)
-            .flat_map(|outer| (0..outer).rev().map(move |inner| (inner, outer)))
-            .filter(|&(a, b)| off_normal(a) && off_normal(b))
-            .map(|(a, b)| {
-                (
-                    a,
-                    b,
-                    handedness(normal, layers[a].centroid, layers[b].centroid),
-                )
-            })
-            .find(|&(_, _, turn)| turn.abs() >= Self::TURN)
-            .map(|(a, b, turn)| (a, b, turn.signum()));
-        MirrorTest { pair }
-    }
-
-    fn passes(&self, normal: Vec3, layers: &[Layer]) -> bool {
-        match self.pair {
-            Some((a, b, sign)) => {
-                handedness(normal, layers[a].centroid, layers[b].centroid) * sign >= 0.0
-            }
-            None => true,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -17,10 +17,10 @@
 //! c_T ([`SurfaceTemplate`]), for the same reason.
 
 use crate::budget::{mesh_bytes, voxel_bytes};
+use crate::descriptor::curvature::Surface;
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Vec3;
-use crate::mesh::surface::Surface;
 use crate::mesh::{TriMesh, minimal_bounding_sphere};
 use crate::scene::{Scene, check_voxel_work, nearest_voxel};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};

@@ -39,10 +39,9 @@
 //! best wrong placements found reach 0.75-0.8: the default threshold, 0.85,
 //! sits between.
 
-use crate::descriptor::volume::Ball;
 use crate::exec::Backend;
 use crate::math::{Vec3, symmetric_eigen};
-use crate::voxel::{Grid, Solid, level_for_radius};
+use crate::voxel::{Ball, Grid, Solid, level_for_radius};
 
 /// Surface samples taken from the template.
 const SAMPLES: usize = 4096;

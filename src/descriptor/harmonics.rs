@@ -35,10 +35,9 @@
 //!   order that rejects soonest rather than innermost first, with the same
 //!   survivors and distances ([`ClutterPolicy::selective_order`]).
 
-use super::volume::Ball;
 use super::{ClutterPolicy, OnionDescriptor};
 use crate::exec::Backend;
-use crate::voxel::{Grid, Solid, level_for_radius};
+use crate::voxel::{Ball, Grid, Solid, level_for_radius};
 use std::f64::consts::PI;
 
 /// Bandwidth: 2B x 2B samples per sphere.

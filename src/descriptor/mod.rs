@@ -16,7 +16,7 @@ pub mod volume;
 pub use clutter::ClutterPolicy;
 pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
-pub use volume::{Ball, VolumeDescriptor};
+pub use volume::VolumeDescriptor;
 
 use crate::exec::Backend;
 

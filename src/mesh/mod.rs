@@ -8,19 +8,14 @@
 //! [`TriMesh::degenerate_dropped`]) rather than rejected, because real files
 //! often carry a few.
 
-mod ball_clip;
 mod bounding_sphere;
 mod closest_point;
 pub mod io;
 pub mod shapes;
-pub mod surface;
-mod vertex_grid;
 mod weld;
 
-pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
-pub use vertex_grid::VertexGrid;
 pub use weld::weld_vertices;
 
 use crate::error::{Error, Result};

@@ -5,12 +5,14 @@
 //! every shell (voxels whose centre is inside). The skin, the solid voxels
 //! with an empty face neighbour, is the set of candidate points.
 
+mod ball;
 mod fill;
 mod grid;
 mod pyramid;
 mod skin;
 mod surface;
 
+pub use ball::Ball;
 pub use fill::fill_solid;
 pub use grid::{Grid, GridSpec, PADDING};
 pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};

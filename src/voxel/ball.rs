@@ -1,0 +1,520 @@
+//! Digital balls on the voxel grid: the runs along x of the voxels (or
+//! count-pyramid blocks) whose centres lie within a radius of a voxel
+//! centre, one set of runs per position of the centre inside its block.
+//! The volume descriptor counts solid voxels in them, verification reads
+//! moments over them, and the harmonics clutter guard reuses the volume
+//! stage's balls.
+
+use crate::exec::Backend;
+use crate::math::Vec3;
+use crate::voxel::{CountLevel, Grid, Solid};
+
+/// One run of a digital ball: blocks (or voxels) `x0..=x1` of the row
+/// `(dy, dz)`, relative to the block holding the centre.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Span {
+    dy: i16,
+    dz: i16,
+    x0: i16,
+    x1: i16,
+}
+
+/// The runs of the ball for one position of the centre inside its block.
+#[derive(Clone, Debug)]
+struct Phase {
+    spans: Vec<Span>,
+    voxels: u64,
+    /// Reach of the runs below and above the centre block, per axis.
+    lo: [i64; 3],
+    hi: [i64; 3],
+    /// The runs as index pairs into a level's running sums, relative to the
+    /// centre block's entry (set by [`Ball::bind`]).
+    offsets: Vec<(i64, i64)>,
+}
+
+impl Phase {
+    /// The runs for the centre mirrored along the axes `flip` (x, y, z)
+    /// within its block, in the order [`Ball::phase`] would list them
+    /// (rows by z, then y), which the exact arithmetic there reproduces
+    /// bit for bit.
+    fn mirrored(&self, flip: [bool; 3]) -> Phase {
+        if flip == [false; 3] {
+            return self.clone();
+        }
+        let turn = |sp: &Span| {
+            let (x0, x1) = if flip[0] {
+                (-sp.x1, -sp.x0)
+            } else {
+                (sp.x0, sp.x1)
+            };
+            Span {
+                dy: if flip[1] { -sp.dy } else { sp.dy },
+                dz: if flip[2] { -sp.dz } else { sp.dz },
+                x0,
+                x1,
+            }
+        };
+        // Rows of one z run together, by increasing y: reverse the order of
+        // the rows (z flipped) and within them (y flipped).
+        let mut rows: Vec<&[Span]> = self.spans.chunk_by(|a, b| a.dz == b.dz).collect();
+        if flip[2] {
+            rows.reverse();
+        }
+        let mut spans = Vec::with_capacity(self.spans.len());
+        for row in rows {
+            if flip[1] {
+                spans.extend(row.iter().rev().map(turn));
+            } else {
+                spans.extend(row.iter().map(turn));
+            }
+        }
+        let (lo, hi) = (self.lo, self.hi);
+        Phase {
+            spans,
+            voxels: self.voxels,
+            lo: [0, 1, 2].map(|a| if flip[a] { -hi[a] } else { lo[a] }),
+            hi: [0, 1, 2].map(|a| if flip[a] { -lo[a] } else { hi[a] }),
+            offsets: Vec::new(),
+        }
+    }
+}
+
+/// The ball of a radius (in voxels) around a voxel centre, as runs of the
+/// pyramid level it is read from.
+#[derive(Clone, Debug)]
+pub struct Ball {
+    radius: f64,
+    level: u32,
+    /// One per position of the centre voxel in its block (s^3 of them).
+    phases: Vec<Phase>,
+}
+
+impl Ball {
+    /// The ball of `radius` voxels read at pyramid level `level`.
+    pub fn at_level(radius: f64, level: u32) -> Ball {
+        Ball::build(radius, level, Backend::Serial)
+    }
+
+    /// Like [`Ball::at_level`], computing the phases with `backend`.
+    pub fn build(radius: f64, level: u32, backend: Backend) -> Ball {
+        let s = 1i64 << level;
+        // A centre in the upper half of its block along an axis sees the
+        // ball of the mirrored position, mirrored: only the lower halves
+        // are computed (an eighth of the phases from level 1 on).
+        let half = (s + 1) / 2;
+        let lower = backend.map((half * half * half) as usize, |i| {
+            let i = i as i64;
+            Ball::phase(radius, s, [i % half, (i / half) % half, i / (half * half)])
+        });
+        let phases = backend.map((s * s * s) as usize, |i| {
+            let i = i as i64;
+            let p = [i % s, (i / s) % s, i / (s * s)];
+            let flip = p.map(|c| c >= half);
+            let q = p.map(|c| if c >= half { s - 1 - c } else { c });
+            lower[(q[0] + half * (q[1] + half * q[2])) as usize].mirrored(flip)
+        });
+        Ball {
+            radius,
+            level,
+            phases,
+        }
+    }
+
+    /// Blocks of edge `s` whose centres lie within `radius` of a voxel centre
+    /// at position `p` inside its block.
+    fn phase(radius: f64, s: i64, p: [i64; 3]) -> Phase {
+        let sf = s as f64;
+        // The voxel centre relative to its block's centre, in voxels.
+        let o = p.map(|c| c as f64 - (sf - 1.0) / 2.0);
+        let r2 = radius * radius + 1e-9;
+        let range = |o: f64, reach: f64| {
+            (
+                ((o - reach) / sf).ceil() as i64,
+                ((o + reach) / sf).floor() as i64,
+            )
+        };
+        let mut spans = Vec::new();
+        let mut blocks = 0u64;
+        let (z0, z1) = range(o[2], radius);
+        for dz in z0..=z1 {
+            let ez = (sf * dz as f64 - o[2]).powi(2);
+            let (y0, y1) = range(o[1], (r2 - ez).max(0.0).sqrt());
+            for dy in y0..=y1 {
+                let rest = r2 - ez - (sf * dy as f64 - o[1]).powi(2);
+                if rest < 0.0 {
+                    continue;
+                }
+                let (x0, x1) = range(o[0], rest.sqrt());
+                if x0 > x1 {
+                    continue;
+                }
+                spans.push(Span {
+                    dy: dy as i16,
+                    dz: dz as i16,
+                    x0: x0 as i16,
+                    x1: x1 as i16,
+                });
+                blocks += (x1 - x0 + 1) as u64;
+            }
+        }
+        let mut lo = [0i64; 3];
+        let mut hi = [0i64; 3];
+        for sp in &spans {
+            lo = [
+                lo[0].min(sp.x0 as i64),
+                lo[1].min(sp.dy as i64),
+                lo[2].min(sp.dz as i64),
+            ];
+            hi = [
+                hi[0].max(sp.x1 as i64),
+                hi[1].max(sp.dy as i64),
+                hi[2].max(sp.dz as i64),
+            ];
+        }
+        Phase {
+            spans,
+            voxels: blocks * (s * s * s) as u64,
+            lo,
+            hi,
+            offsets: Vec::new(),
+        }
+    }
+
+    /// The radius in voxels.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// The pyramid level it is read from.
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// Bytes its run tables hold once bound (what
+    /// [`crate::budget::ball_bytes`] estimates ahead).
+    #[cfg(test)]
+    pub(crate) fn table_bytes(&self) -> u64 {
+        let runs: usize = self.phases.iter().map(|p| p.spans.len()).sum();
+        (runs * (size_of::<Span>() + size_of::<(i64, i64)>())) as u64
+    }
+
+    /// Builds the level this ball reads (if needed) and binds the runs to
+    /// its layout; a ball is then only used with this solid.
+    pub fn bind(mut self, solid: &Solid, backend: Backend) -> Ball {
+        if self.level == 0 {
+            return self;
+        }
+        let level = solid.level(self.level, backend);
+        let (ny, stride) = (level.dims()[1] as i64, level.stride() as i64);
+        for phase in &mut self.phases {
+            phase.offsets = phase
+                .spans
+                .iter()
+                .map(|sp| {
+                    let row = (sp.dz as i64 * ny + sp.dy as i64) * stride;
+                    (row + sp.x0 as i64, row + sp.x1 as i64 + 1)
+                })
+                .collect();
+        }
+        self
+    }
+
+    /// Solid voxels in the ball around voxel `v`, and the voxels the ball
+    /// covers (voxels outside the grid count as empty). The ball must be
+    /// bound to `solid`.
+    pub fn count(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
+        if self.level == 0 {
+            return (
+                count_bits(&self.phases[0].spans, solid.bits(), v),
+                self.phases[0].voxels,
+            );
+        }
+        let level = solid.level(self.level, Backend::Serial);
+        let (phase, c) = self.phase_at(v);
+        let d = level.dims().map(|x| x as i64);
+        let sums = level.prefix();
+        let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < d[a]);
+        let mut total = 0u64;
+        if inside {
+            debug_assert_eq!(phase.offsets.len(), phase.spans.len(), "ball not bound");
+            let base = level.row_start(c[1] as usize, c[2] as usize) as i64 + c[0];
+            for &(lo, hi) in &phase.offsets {
+                total += (sums[(base + hi) as usize] - sums[(base + lo) as usize]) as u64;
+            }
+            return (total, phase.voxels);
+        }
+        (count_runs(level, phase, c), phase.voxels)
+    }
+
+    /// Like [`Ball::count`] on a ball that need not be bound to `solid`: run
+    /// by run, for a solid read at one point (a template's descriptor),
+    /// where binding every phase would cost more than the reads.
+    pub fn count_once(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
+        if self.level == 0 {
+            return self.count(solid, v);
+        }
+        let level = solid.level(self.level, Backend::Serial);
+        let (phase, c) = self.phase_at(v);
+        (count_runs(level, phase, c), phase.voxels)
+    }
+
+    /// The runs for voxel `v` (level > 0), and the block holding it.
+    fn phase_at(&self, v: [u16; 3]) -> (&Phase, [i64; 3]) {
+        let s = 1usize << self.level;
+        let p = v.map(|c| c as usize & (s - 1));
+        let block = v.map(|x| (x as usize >> self.level) as i64);
+        (&self.phases[p[0] + s * (p[1] + s * p[2])], block)
+    }
+
+    /// Calls `visit(offset, solid voxels)` for every block of the ball around
+    /// voxel `v` (level > 0; `offset` from the voxel's centre to the block's,
+    /// in voxels): what moments of the local solid are computed from.
+    pub(crate) fn for_each_block(
+        &self,
+        solid: &Solid,
+        v: [u16; 3],
+        mut visit: impl FnMut(Vec3, u32),
+    ) {
+        assert!(self.level > 0, "blocks exist from level 1");
+        let level = solid.level(self.level, Backend::Serial);
+        let s = 1i64 << self.level;
+        let (phase, c) = self.phase_at(v);
+        let d = level.dims().map(|x| x as i64);
+        let half = (s as f64 - 1.0) / 2.0;
+        let centre = |b: i64, a: usize| (b * s) as f64 + half - v[a] as f64;
+        for sp in &phase.spans {
+            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
+                continue;
+            }
+            let row = level.row_start(y as usize, z as usize);
+            for x in (c[0] + sp.x0 as i64).max(0)..=(c[0] + sp.x1 as i64).min(d[0] - 1) {
+                let n = level.run(row, x as usize, x as usize);
+                if n > 0 {
+                    visit(Vec3::new(centre(x, 0), centre(y, 1), centre(z, 2)), n);
+                }
+            }
+        }
+    }
+
+    /// The solid fraction of the ball around voxel `v` (Eq. 3).
+    pub fn fraction(&self, solid: &Solid, v: [u16; 3]) -> f64 {
+        let (inside, all) = self.count(solid, v);
+        inside as f64 / all as f64
+    }
+}
+
+/// Solid voxels in the runs of `phase` around block `c` of `level`, run by
+/// run (runs outside the grid count as empty).
+fn count_runs(level: &CountLevel, phase: &Phase, c: [i64; 3]) -> u64 {
+    let d = level.dims().map(|x| x as i64);
+    let mut total = 0u64;
+    for sp in &phase.spans {
+        let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+        if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
+            continue;
+        }
+        let (x0, x1) = (
+            (c[0] + sp.x0 as i64).max(0),
+            (c[0] + sp.x1 as i64).min(d[0] - 1),
+        );
+        if x0 <= x1 {
+            total += level.run(
+                level.row_start(y as usize, z as usize),
+                x0 as usize,
+                x1 as usize,
+            ) as u64;
+        }
+    }
+    total
+}
+
+/// Set voxels of the bit grid in the runs around voxel `v`.
+fn count_bits(spans: &[Span], grid: &Grid, v: [u16; 3]) -> u64 {
+    let [nx, ny, nz] = grid.dims().map(|d| d as i64);
+    let c = v.map(|x| x as i64);
+    let words = grid.words();
+    let wpr = grid.words_per_row() as i64;
+    let mut total = 0u64;
+    for s in spans {
+        let (y, z) = (c[1] + s.dy as i64, c[2] + s.dz as i64);
+        if y < 0 || z < 0 || y >= ny || z >= nz {
+            continue;
+        }
+        let (lo, hi) = (
+            (c[0] + s.x0 as i64).max(0),
+            (c[0] + s.x1 as i64).min(nx - 1),
+        );
+        if lo <= hi {
+            total += count_span(
+                words,
+                ((z * ny + y) * wpr) as usize,
+                lo as usize,
+                hi as usize,
+            ) as u64;
+        }
+    }
+    total
+}
+
+/// Set bits `lo..=hi` of the row starting at word `row`.
+#[inline]
+fn count_span(words: &[u64], row: usize, lo: usize, hi: usize) -> u32 {
+    let (wl, wh) = (row + (lo >> 6), row + (hi >> 6));
+    let lo_mask = !0u64 << (lo & 63);
+    let hi_mask = !0u64 >> (63 - (hi & 63));
+    if wl == wh {
+        return (words[wl] & lo_mask & hi_mask).count_ones();
+    }
+    let mut n = (words[wl] & lo_mask).count_ones() + (words[wh] & hi_mask).count_ones();
+    for w in &words[wl + 1..wh] {
+        n += w.count_ones();
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::uv_sphere;
+    use crate::voxel::level_for_radius;
+    use crate::voxel::{GridSpec, skin, voxelize};
+    use std::f64::consts::PI;
+
+    /// The volume stage's block spacing (`descriptor::volume::BLOCKS_PER_RADIUS`).
+    const VOLUME_BLOCKS: f64 = 4.5;
+
+    fn exact(r: f64) -> Ball {
+        Ball::at_level(r, 0)
+    }
+
+    #[test]
+    fn ball_holds_about_its_volume_in_lattice_points() {
+        for r in [3.0, 7.5, 20.0, 41.3] {
+            let b = exact(r);
+            let want = 4.0 / 3.0 * PI * r * r * r;
+            let got = b.phases[0].voxels as f64;
+            assert!(
+                (got - want).abs() / want < 3.0 / r,
+                "r {r}: {got} vs {want}"
+            );
+        }
+        assert_eq!(exact(1.0).phases[0].voxels, 7);
+        assert_eq!(exact(0.5).phases[0].voxels, 1);
+    }
+
+    fn brute(g: &Grid, v: [u16; 3], r: f64) -> u64 {
+        let e = r.ceil() as i64;
+        let mut n = 0;
+        for dz in -e..=e {
+            for dy in -e..=e {
+                for dx in -e..=e {
+                    if ((dx * dx + dy * dy + dz * dz) as f64) <= r * r
+                        && g.get(v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz)
+                    {
+                        n += 1;
+                    }
+                }
+            }
+        }
+        n
+    }
+
+    #[test]
+    fn exact_counting_matches_brute_force_near_and_away_from_the_border() {
+        let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
+        let spec = GridSpec::for_scene(m.bounds(), 40).unwrap();
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let ball = exact(6.7);
+        for v in [
+            [20u16, 20, 20],
+            [3, 20, 20],
+            [21, 1, 38],
+            [0, 0, 0],
+            [41, 30, 5],
+        ] {
+            assert_eq!(
+                ball.count(&solid, v).0,
+                brute(solid.bits(), v, 6.7),
+                "at {v:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn coarse_levels_agree_with_exact_counts() {
+        // A real, irregular model, at the radii the pipeline uses.
+        let path = &crate::shared_path("models/cow.obj");
+        let Ok(bytes) = std::fs::read(path) else {
+            return;
+        };
+        let m = crate::mesh::io::load(&bytes, None).unwrap();
+        let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Parallel));
+        let skin: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .step_by(37)
+            .collect();
+        for r in [13.0, 26.0, 41.0, 70.0] {
+            let coarse =
+                Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS)).bind(&solid, Backend::Serial);
+            assert!(coarse.level() > 0);
+            let fine = exact(r);
+            let (mut worst, mut sum) = (0.0f64, 0.0);
+            for &v in &skin {
+                let d = (coarse.fraction(&solid, v) - fine.fraction(&solid, v)).abs();
+                worst = worst.max(d);
+                sum += d;
+            }
+            let mean = sum / skin.len() as f64;
+            assert!(
+                mean < 0.004 && worst < 0.02,
+                "r {r} (level {}): mean {mean} worst {worst}",
+                coarse.level()
+            );
+        }
+    }
+
+    #[test]
+    fn mirrored_phases_are_the_phases_computed_directly() {
+        for (r, level) in [(3.0, 1), (12.3, 1), (24.6, 2), (36.9, 3), (30.5, 3)] {
+            let ball = Ball::at_level(r, level);
+            let s = 1i64 << level;
+            for (i, phase) in ball.phases.iter().enumerate() {
+                let i = i as i64;
+                let direct = Ball::phase(r, s, [i % s, (i / s) % s, i / (s * s)]);
+                assert_eq!(phase.spans, direct.spans, "r {r} level {level} phase {i}");
+                assert_eq!(
+                    (phase.voxels, phase.lo, phase.hi),
+                    (direct.voxels, direct.lo, direct.hi)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn counting_run_by_run_unbound_matches_the_bound_offsets() {
+        // What the template's one point reads, against what every
+        // candidate reads, inside the grid and across its border.
+        let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
+        let spec = GridSpec::for_scene(m.bounds(), 90).unwrap();
+        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let mut points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .step_by(7)
+            .collect();
+        points.extend([[0, 0, 0], [45, 45, 45], [2, 47, 88]]);
+        for r in [10.0, 20.0, 40.0] {
+            let unbound = Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS));
+            let bound = unbound.clone().bind(&solid, Backend::Serial);
+            assert!(bound.level() > 0);
+            for &v in &points {
+                assert_eq!(
+                    unbound.count_once(&solid, v),
+                    bound.count(&solid, v),
+                    "r {r} at {v:?}"
+                );
+            }
+        }
+    }
+}
