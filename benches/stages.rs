@@ -67,7 +67,7 @@ fn main() {
         }
         let best = (0..runs)
             .map(|_| run(name, select, &options))
-            .min_by(|a, b| a.timings.total.total_cmp(&b.timings.total))
+            .min_by(|a, b| a.timings.total().total_cmp(&b.timings.total()))
             .unwrap();
         print_scene(name, &best);
         summary.push((name, best));
@@ -103,7 +103,7 @@ fn stage_table(summary: &[(&str, MatchReport)], curvature: bool) {
             t.template,
             t.match_,
             t.group,
-            t.total,
+            t.total(),
             r.instances.len()
         );
     }
@@ -145,10 +145,17 @@ fn run(name: &str, select: bool, options: &MatchOptions) -> MatchReport {
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
     let mut report = search(&scene, &source, options, &mut ()).unwrap();
     report.timings.load = load_ms;
-    report.timings.sum();
     report
 }
 
 fn print_scene(name: &str, r: &MatchReport) {
-    println!("== {name}\n{r}\n");
+    println!("== {name}: {} instance(s)", r.instances.len());
+    println!("stage      layer   radius candidates  survivors        ms");
+    for s in &r.stages {
+        println!(
+            "{:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
+            s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
+        );
+    }
+    println!();
 }

@@ -101,8 +101,8 @@ fn found(report: &MatchReport, truth: &[Vec3]) -> (Vec<bool>, usize) {
 fn finds_the_free_and_the_sunk_copy_but_not_the_decoy() {
     let (report, truth) = run(&MatchOptions::DEFAULT);
     let (hits, stray) = found(&report, &truth);
-    assert_eq!(hits, [true, true, false], "{report}");
-    assert_eq!(stray, 0, "{report}");
+    assert_eq!(hits, [true, true, false], "{report:?}");
+    assert_eq!(stray, 0, "{report:?}");
 }
 
 #[test]
@@ -111,5 +111,5 @@ fn without_hidden_surface_the_sunk_copy_is_lost() {
     options.clutter.hidden_surface = 0.0;
     let (report, truth) = run(&options);
     let (hits, _) = found(&report, &truth);
-    assert_eq!(hits, [true, false, false], "{report}");
+    assert_eq!(hits, [true, false, false], "{report:?}");
 }

@@ -249,7 +249,6 @@ impl SceneHandle {
             Err(error) => return Err(js_error(error)),
         };
         report.timings.load = self.load_ms + template.load_ms;
-        report.timings.sum();
         report_to_js(&report)
     }
 }

@@ -1,6 +1,7 @@
 //! The `fast-reject` command: search a scene file for a template.
 
 mod folder_resolver;
+mod table;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -152,7 +153,6 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
             .map_err(|e| format!("scene '{}': {e}", args.scene.display()))?;
         let mut report = search(&scene, &source, &options, &mut ()).map_err(|e| e.to_string())?;
         report.timings.load = load;
-        report.timings.sum();
         Ok(report)
     };
     let report = match args.threads {
@@ -186,7 +186,6 @@ fn run_demo(json: bool) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     report.timings.load = load;
-    report.timings.sum();
     if !json {
         println!(
             "Demo: searching the embedded scene (mugs among other objects) for the embedded mug.\n"
@@ -231,7 +230,7 @@ fn print_report(
         let text = serde_json::to_string(report).map_err(|e| e.to_string())?;
         println!("{text}");
     } else {
-        println!("descriptor: {descriptor}\n{report}");
+        println!("descriptor: {descriptor}\n{}", table::Table(report));
     }
     Ok(())
 }

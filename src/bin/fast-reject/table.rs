@@ -1,0 +1,76 @@
+//! The CLI's human-readable report (`--json` prints the report itself).
+
+use std::fmt;
+
+use fast_reject::search::MatchReport;
+
+/// A search report laid out as a table.
+pub struct Table<'a>(pub &'a MatchReport);
+
+/// A readable table: template, grid, every layer, the instances, timings.
+impl fmt::Display for Table<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let report = self.0;
+        let t = &report.template;
+        writeln!(
+            f,
+            "template: centre ({:.4}, {:.4}, {:.4}), radius {:.4}",
+            t.center[0], t.center[1], t.center[2], t.radius
+        )?;
+        if let Some(g) = &report.grid {
+            writeln!(
+                f,
+                "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points",
+                g.resolution, g.voxel_size, g.skin_voxels
+            )?;
+        }
+        if let Some(s) = &report.surface {
+            writeln!(
+                f,
+                "surface: {} welded vertices (the candidate points), {} triangles",
+                s.vertices, s.triangles
+            )?;
+        }
+        writeln!(f)?;
+        writeln!(
+            f,
+            "{:<10} {:>5} {:>8} {:>10} {:>10} {:>9}",
+            "stage", "layer", "radius", "candidates", "survivors", "ms"
+        )?;
+        for s in &report.stages {
+            writeln!(
+                f,
+                "{:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
+                s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
+            )?;
+        }
+        writeln!(f, "\n{} instance(s):", report.instances.len())?;
+        for (i, inst) in report.instances.iter().enumerate() {
+            let p = inst.position;
+            write!(
+                f,
+                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}",
+                i + 1,
+                p[0],
+                p[1],
+                p[2],
+                inst.distance,
+            )?;
+            if let Some(score) = inst.score {
+                write!(f, "  agreement {score:.3}")?;
+            }
+            writeln!(f, "  support {}", inst.support)?;
+        }
+        let tm = &report.timings;
+        write!(
+            f,
+            "\ntime (ms): load {:.1}, voxelize/weld {:.1}, template {:.1}, match {:.1}, group {:.1}, total {:.1}",
+            tm.load,
+            tm.voxelize + tm.surface,
+            tm.template,
+            tm.match_,
+            tm.group,
+            tm.total()
+        )
+    }
+}

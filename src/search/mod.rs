@@ -1,0 +1,59 @@
+//! The whole search: template, cascade, verification, grouping, with
+//! timings. Two pipelines share the cascade: the voxel one ([`voxel`]: volume
+//! and harmonics on the scene's skin voxels) and the surface one
+//! ([`surface`]: curvature on the welded mesh's vertices).
+
+mod options;
+mod report;
+mod surface;
+mod voxel;
+
+pub use options::{DescriptorKind, MatchOptions};
+pub use report::{GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
+
+use crate::cascade::Observer;
+use crate::error::Result;
+use crate::scene::Scene;
+use crate::template::TemplateSource;
+
+/// Searches `scene` for every occurrence of `source`.
+pub fn search(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+) -> Result<MatchReport> {
+    options.validate()?;
+    if options.descriptor == DescriptorKind::Curvature {
+        return surface::search_surface(scene, source, options, observer);
+    }
+    voxel::search_voxels(scene, source, options, observer)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::now_ms;
+    use crate::mesh::io::load;
+    use crate::scene::SceneOptions;
+
+    fn demo(name: &str) -> crate::mesh::TriMesh {
+        let path = format!("{}/assets/demo/{name}.glb", env!("CARGO_MANIFEST_DIR"));
+        load(&std::fs::read(path).unwrap(), None).unwrap()
+    }
+
+    #[test]
+    fn the_total_is_wall_clock_time_when_stages_overlap() {
+        // A separate model is voxelized beside the scene: the two stages'
+        // times add up to more than the time they took together.
+        let scene = Scene::new(demo("scene"), &SceneOptions::DEFAULT).unwrap();
+        let template = TemplateSource::Model(demo("template"));
+        let start = now_ms();
+        let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut ()).unwrap();
+        let wall = now_ms() - start;
+        let t = &report.timings;
+        assert!(t.total() <= wall + 0.1, "{t:?} over {wall} ms");
+        let (busiest, rest) = (t.voxelize.max(t.template), t.match_ + t.group);
+        assert!(t.total() >= busiest + rest - 0.1, "{t:?}");
+    }
+}
