@@ -1,11 +1,13 @@
 //! Harmonics against analytic oracles and under rotation.
 
+use super::transform::{fejer_weights, normalized_legendre, phi, theta};
 use super::*;
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::shapes::{cuboid, torus, uv_sphere};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
+use std::f64::consts::PI;
 
 fn sample_fn(f: impl Fn(Vec3) -> f64) -> [f32; RINGS * SECTORS] {
     let mut out = [0.0; RINGS * SECTORS];
