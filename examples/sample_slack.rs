@@ -122,7 +122,7 @@ fn main() {
         println!(
             "    survivor {s0} per layer {:?}; neighbour {w0} at {:.4} per layer {:?}",
             layers(s0),
-            surface.position(s0).dist(surface.position(w0)),
+            surface.position(s0).distance(surface.position(w0)),
             layers(w0)
         );
         let best = survivors

@@ -9,6 +9,10 @@ use std::sync::OnceLock;
 static CLOCK: OnceLock<fn() -> f64> = OnceLock::new();
 
 /// Installs the millisecond clock used for timings (first call wins).
+#[cfg_attr(
+    not(all(target_arch = "wasm32", target_os = "unknown")),
+    allow(dead_code)
+)]
 pub fn set_clock(clock: fn() -> f64) {
     let _ = CLOCK.set(clock);
 }

@@ -62,7 +62,7 @@ pub fn local_bests(
     let mut kept: Vec<(Vec3, Survivor)> = Vec::new();
     for s in order {
         let p = position(s.point);
-        if kept.iter().all(|(q, _)| (*q - p).norm2() > r2) {
+        if kept.iter().all(|(q, _)| (*q - p).length_squared() > r2) {
             kept.push((p, *s));
         }
     }
@@ -90,7 +90,7 @@ pub fn group(
     let mut found: Vec<(Vec3, Instance)> = Vec::new();
     for v in order {
         let p = v.position;
-        if found.iter().all(|(c, _)| (*c - p).norm2() > r2) {
+        if found.iter().all(|(c, _)| (*c - p).length_squared() > r2) {
             found.push((
                 p,
                 Instance {
@@ -104,7 +104,10 @@ pub fn group(
     }
     for s in survivors {
         let p = position(s.point);
-        if let Some((_, inst)) = found.iter_mut().find(|(c, _)| (*c - p).norm2() <= r2) {
+        if let Some((_, inst)) = found
+            .iter_mut()
+            .find(|(c, _)| (*c - p).length_squared() <= r2)
+        {
             inst.support += 1;
         }
     }

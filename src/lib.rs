@@ -1,28 +1,90 @@
-//! fast-reject: find every occurrence of a template shape in a 3D scene.
+//! fast-reject finds every occurrence of a template shape in a 3D scene,
+//! with the Fast Reject schema for part-in-whole matching (Attene, Marini,
+//! Spagnuolo, Falcidieno, 2010).
+//!
+//! The template is described by an *onion descriptor*: layers computed at
+//! a centre point c_T over growing radii r_1 < ... < r_k. The scene is not
+//! preprocessed: every candidate point gets layer 1, those too far from the
+//! template's layer 1 are rejected, layer 2 is computed for the survivors
+//! only, and so on.
+//!
+//! ```text
+//!  bytes --load--> TriMesh --Scene::new--> Scene
+//!                                          |  voxel pipeline: solid grid, skin voxels
+//!                                          |  surface pipeline: welded mesh, vertices
+//!  TemplateSource (a model, or a sphere    v
+//!  around part of the scene) ---------> template: c_T, r_1..r_k, its layers
+//!                                          |
+//!                      cascade: layer 1 on every candidate, layer i on
+//!                      the survivors of layer i-1 (volume, harmonics, or
+//!                      curvature stages), cancellable between layers
+//!                                          |
+//!                      verify (placement test) and group survivors
+//!                                          v
+//!                                     MatchReport: instances, per-layer
+//!                                     statistics, stage timings
+//! ```
+//!
+//! The core takes bytes and slices, never paths, and runs the same on
+//! native targets and in WebAssembly (the `wasm` module, on `wasm32-unknown-unknown`, is the JavaScript
+//! binding).
+//!
+//! ```no_run
+//! use fast_reject::{LayerStats, MatchOptions, Scene, SceneOptions, TemplateSource, load, search};
+//!
+//! fn find(scene_bytes: &[u8], template_bytes: &[u8]) -> fast_reject::Result<()> {
+//!     // Bytes in (any supported format); the scene is built once and
+//!     // searched any number of times.
+//!     let scene = Scene::new(load(scene_bytes, None)?, &SceneOptions::DEFAULT)?;
+//!     let template = TemplateSource::Model(load(template_bytes, None)?);
+//!     // The observer sees every layer as it completes; Break cancels.
+//!     let mut progress = |s: &LayerStats| {
+//!         eprintln!("{} layer {}: {} -> {}", s.descriptor, s.layer, s.candidates, s.survivors);
+//!         std::ops::ControlFlow::Continue(())
+//!     };
+//!     let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut progress)?;
+//!     for i in &report.instances {
+//!         println!("{:?} distance {:.3} score {:?}", i.position, i.distance, i.score);
+//!     }
+//!     Ok(())
+//! }
+//! ```
+//!
+//! Every failure is a typed [`Error`] whose message says what to change;
+//! bad input never panics.
 
 // Numeric kernels index several arrays with one loop index; iterator chains
 // would hide the arithmetic.
 #![allow(clippy::needless_range_loop)]
 
-pub mod budget;
+pub(crate) mod budget;
 pub mod cascade;
-pub mod clock;
+pub(crate) mod clock;
 pub mod descriptor;
 pub mod error;
 pub mod exec;
-pub mod instances;
+pub(crate) mod instances;
 pub mod math;
 pub mod mesh;
 pub mod scene;
 pub mod search;
 pub mod template;
-pub mod verify;
-pub mod voxel;
+pub(crate) mod verify;
+pub(crate) mod voxel;
 // The JavaScript binding, for browsers and Node only (not WASI).
 #[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
 pub mod wasm;
 
+pub use cascade::{LayerStats, Observer};
+pub use descriptor::ClutterPolicy;
 pub use error::{Error, Format, Result};
+pub use exec::Backend;
+pub use instances::Instance;
+pub use mesh::TriMesh;
+pub use mesh::io::load;
+pub use scene::{Scene, SceneOptions};
+pub use search::{DescriptorKind, MatchOptions, MatchReport, search};
+pub use template::TemplateSource;
 
 /// A file of the shared test data: `$FAST_REJECT_SHARED/rel` when that is
 /// set (sandboxes such as wasmtime that cannot see `../shared` by its

@@ -20,12 +20,12 @@ pub struct SceneOptions {
     /// Voxels along the scene's longest side. Default: 512 (the paper's).
     pub resolution: u32,
     /// The memory budget in bytes for the scene and every search on it:
-    /// what would pass it is refused before it is allocated (see
-    /// [`crate::budget`]). Default: 2 GiB.
+    /// what would pass it is refused before it is allocated with
+    /// [`crate::Error::OverBudget`], which says what would fit. Default: 2 GiB.
     pub memory_budget: u64,
     /// Refuse to voxelize a mesh whose triangles, projected on the three
-    /// axis planes, cover more voxel faces than this (see
-    /// [`crate::budget`]): the voxelizer's time follows it. Default: 2^27,
+    /// axis planes, cover more voxel faces than this: the voxelizer's
+    /// time follows it. Default: 2^27,
     /// about 5 s on one core; the shared scenes need under 10^6 at 512.
     pub max_voxel_work: f64,
     /// Serial or parallel. Default: parallel.
@@ -320,8 +320,8 @@ pub(crate) fn nearest_voxel(spec: &GridSpec, points: &[[u16; 3]], p: Vec3) -> Op
         .iter()
         .min_by(|a, b| {
             (spec.center(**a) - p)
-                .norm2()
-                .total_cmp(&(spec.center(**b) - p).norm2())
+                .length_squared()
+                .total_cmp(&(spec.center(**b) - p).length_squared())
         })
         .copied()
 }

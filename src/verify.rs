@@ -149,7 +149,7 @@ impl Verifier {
                     (s[2] as i64 - a[2]) as f64,
                 )
             })
-            .filter(|p| p.norm() <= radius)
+            .filter(|p| p.length() <= radius)
             .collect();
         Verifier {
             balls,
@@ -208,7 +208,9 @@ impl Verifier {
             // placement that moves the candidate least.
             let better = match best {
                 None => true,
-                Some((b, bp)) if (surface - b).abs() <= TIE => pose.shift.norm() < bp.shift.norm(),
+                Some((b, bp)) if (surface - b).abs() <= TIE => {
+                    pose.shift.length() < bp.shift.length()
+                }
                 Some((b, _)) => surface > b,
             };
             if better {

@@ -21,7 +21,7 @@ fn figure() -> TriMesh {
 
 /// Rotation by `angle` about the unit axis `axis` (Rodrigues).
 fn rotation(axis: Vec3, angle: f64) -> impl Fn(Vec3) -> Vec3 {
-    let k = axis * (1.0 / axis.norm());
+    let k = axis * (1.0 / axis.length());
     let (s, c) = angle.sin_cos();
     move |p: Vec3| p * c + k.cross(p) * s + k * (k.dot(p) * (1.0 - c))
 }
@@ -88,11 +88,11 @@ fn found(report: &MatchReport, truth: &[Vec3]) -> (Vec<bool>, usize) {
         .collect();
     let hits = truth
         .iter()
-        .map(|t| positions.iter().any(|p| p.dist(*t) < tol))
+        .map(|t| positions.iter().any(|p| p.distance(*t) < tol))
         .collect();
     let stray = positions
         .iter()
-        .filter(|p| truth.iter().all(|t| p.dist(*t) >= tol))
+        .filter(|p| truth.iter().all(|t| p.distance(*t) >= tol))
         .count();
     (hits, stray)
 }

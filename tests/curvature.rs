@@ -105,7 +105,7 @@ fn a_turned_scene_gives_the_same_occurrences() {
     use fast_reject::search::search;
     let axis = {
         let a = Vec3::new(1.0, 2.0, 3.0);
-        a * (1.0 / a.norm())
+        a * (1.0 / a.length())
     };
     // Rodrigues' rotation about `axis`.
     let turn = |p: Vec3, angle: f64| {

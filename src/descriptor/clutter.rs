@@ -9,7 +9,7 @@
 //! sphere) holds clearly more material than the template's at that radius,
 //! that layer and the larger ones stop being compared at that point. The
 //! point keeps the distance of its clean layers, and the placement test
-//! ([`crate::verify`]), which is built to ignore added material, decides.
+//! (verification), which is built to ignore added material, decides.
 //!
 //! The same holds for the placement test: template surface that lands inside
 //! the scene's solid is hidden by other material and counts neither way, up

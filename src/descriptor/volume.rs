@@ -10,7 +10,7 @@
 //! blocks whose centres lie within the radius of the (exact) voxel centre,
 //! which keeps the cost of every layer about the same. Template and scene
 //! are read the same way, so the small difference to an exact voxel count
-//! (tested in [`crate::voxel::Ball`]) cancels out of the comparison.
+//! (tested with the voxel balls) cancels out of the comparison.
 
 use super::{ClutterPolicy, OnionDescriptor};
 use crate::exec::Backend;
@@ -132,7 +132,7 @@ impl<'a> VolumeDescriptor<'a> {
     }
 
     /// The descriptor of voxel `v` from `balls`, bound to any solid or none:
-    /// one point is read run by run ([`Ball::count_once`]); the levels it
+    /// one point is read run by run (`Ball::count_once`); the levels it
     /// reads are built with `backend`.
     pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball], backend: Backend) -> Vec<f64> {
         balls
@@ -258,7 +258,7 @@ mod tests {
             .filter(|s| s[0] == c[0] && s[1] == c[1])
             .max_by_key(|s| s[2])
             .unwrap();
-        let d = spec.center(top).norm();
+        let d = spec.center(top).length();
         for r in [0.1, 0.2, 0.4, 0.8] {
             let want = lens(big_r, r, d) / (4.0 / 3.0 * PI * r * r * r);
             let got = VolumeDescriptor::describe(&solid, top, &[r], Backend::Serial)[0];

@@ -16,7 +16,7 @@ pub struct Sphere {
 
 impl Sphere {
     fn contains(&self, p: Vec3, slack: f64) -> bool {
-        (p - self.center).norm2() <= self.radius * self.radius + slack
+        (p - self.center).length_squared() <= self.radius * self.radius + slack
     }
 }
 
@@ -30,7 +30,10 @@ pub fn minimal_bounding_sphere(points: &[Vec3]) -> Option<Sphere> {
     shuffle(&mut pts);
     // Containment slack relative to the point cloud's scale, so that rounding
     // never makes a boundary point look outside and restarts the recursion.
-    let scale = pts.iter().map(|p| (*p - first).norm2()).fold(0.0, f64::max);
+    let scale = pts
+        .iter()
+        .map(|p| (*p - first).length_squared())
+        .fold(0.0, f64::max);
     let slack = scale * 1e-12;
     let mut s = Sphere {
         center: pts[0],
@@ -80,7 +83,7 @@ fn with_three(pts: &[Vec3], q1: Vec3, q2: Vec3, q3: Vec3, slack: f64) -> Sphere 
 fn diametral(a: Vec3, b: Vec3) -> Sphere {
     Sphere {
         center: (a + b) * 0.5,
-        radius: a.dist(b) * 0.5,
+        radius: a.distance(b) * 0.5,
     }
 }
 
@@ -90,14 +93,14 @@ fn circumcircle(a: Vec3, b: Vec3, c: Vec3) -> Sphere {
     let u = b - a;
     let v = c - a;
     let n = u.cross(v);
-    let n2 = n.norm2();
-    if n2 <= 1e-24 * (u.norm2() * v.norm2()).max(f64::MIN_POSITIVE) {
+    let n2 = n.length_squared();
+    if n2 <= 1e-24 * (u.length_squared() * v.length_squared()).max(f64::MIN_POSITIVE) {
         return widest_pair(&[a, b, c]);
     }
-    let offset = (v.cross(n) * u.norm2() + n.cross(u) * v.norm2()) * (0.5 / n2);
+    let offset = (v.cross(n) * u.length_squared() + n.cross(u) * v.length_squared()) * (0.5 / n2);
     Sphere {
         center: a + offset,
-        radius: offset.norm(),
+        radius: offset.length(),
     }
 }
 
@@ -108,7 +111,7 @@ fn circumsphere(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Sphere {
     let v = c - a;
     let w = d - a;
     let det = u.dot(v.cross(w));
-    let scale = u.norm() * v.norm() * w.norm();
+    let scale = u.length() * v.length() * w.length();
     if det.abs() <= 1e-12 * scale.max(f64::MIN_POSITIVE) {
         // Coplanar: the enclosing sphere of the four is one through three of them.
         return [
@@ -126,11 +129,13 @@ fn circumsphere(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Sphere {
         .min_by(|x, y| x.radius.total_cmp(&y.radius))
         .unwrap_or_else(|| widest_pair(&[a, b, c, d]));
     }
-    let offset =
-        (v.cross(w) * u.norm2() + w.cross(u) * v.norm2() + u.cross(v) * w.norm2()) * (0.5 / det);
+    let offset = (v.cross(w) * u.length_squared()
+        + w.cross(u) * v.length_squared()
+        + u.cross(v) * w.length_squared())
+        * (0.5 / det);
     Sphere {
         center: a + offset,
-        radius: offset.norm(),
+        radius: offset.length(),
     }
 }
 
@@ -178,7 +183,7 @@ mod tests {
         // interior points must not matter
         pts.extend((0..50).map(|i| c + Vec3::new(0.01 * i as f64, 0.0, 0.0)));
         let s = minimal_bounding_sphere(&pts).unwrap();
-        assert!((s.center - c).norm() < 1e-6, "{s:?}");
+        assert!((s.center - c).length() < 1e-6, "{s:?}");
         assert!((s.radius - 2.5).abs() < 1e-6, "{s:?}");
     }
 
@@ -191,7 +196,7 @@ mod tests {
             Vec3::new(1.0, 0.0, 0.0),
         ];
         let s = minimal_bounding_sphere(&pts).unwrap();
-        assert!((s.center - Vec3::new(2.0, 0.0, 0.0)).norm() < 1e-9);
+        assert!((s.center - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-9);
         assert!((s.radius - 2.0).abs() < 1e-9);
     }
 
@@ -206,9 +211,9 @@ mod tests {
             ));
         }
         let s = minimal_bounding_sphere(&pts).unwrap();
-        assert!((s.center - Vec3::new(0.5, 0.5, 0.5)).norm() < 1e-9);
+        assert!((s.center - Vec3::new(0.5, 0.5, 0.5)).length() < 1e-9);
         assert!((s.radius - 3f64.sqrt() / 2.0).abs() < 1e-9);
-        assert!(pts.iter().all(|p| p.dist(s.center) <= s.radius + 1e-9));
+        assert!(pts.iter().all(|p| p.distance(s.center) <= s.radius + 1e-9));
     }
 
     #[test]

@@ -25,7 +25,7 @@ pub fn closest_point_on_triangle(
     let point = closest(p, a, b, c);
     ClosestPoint {
         point,
-        distance2: (p - point).norm2(),
+        distance2: (p - point).length_squared(),
         triangle,
     }
 }
@@ -78,12 +78,12 @@ mod tests {
     #[test]
     fn regions() {
         let q = |p| closest(p, A, B, C);
-        assert!((q(Vec3::new(0.2, 0.2, 5.0)) - Vec3::new(0.2, 0.2, 0.0)).norm() < 1e-12);
+        assert!((q(Vec3::new(0.2, 0.2, 5.0)) - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-12);
         assert_eq!(q(Vec3::new(-1.0, -1.0, 0.0)), A);
         assert_eq!(q(Vec3::new(2.0, -0.5, 1.0)), B);
         assert_eq!(q(Vec3::new(-0.5, 3.0, 0.0)), C);
         assert_eq!(q(Vec3::new(0.5, -2.0, 0.0)), Vec3::new(0.5, 0.0, 0.0));
         let on_hyp = q(Vec3::new(1.0, 1.0, 0.0));
-        assert!((on_hyp - Vec3::new(0.5, 0.5, 0.0)).norm() < 1e-12);
+        assert!((on_hyp - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-12);
     }
 }

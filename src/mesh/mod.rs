@@ -19,7 +19,7 @@ pub use closest_point::{ClosestPoint, closest_point_on_triangle};
 pub use weld::weld_vertices;
 
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Vec3};
+use crate::math::{Aabb, Vec3, from_f32};
 
 /// A validated triangle mesh.
 #[derive(Clone, Debug)]
@@ -153,7 +153,7 @@ impl TriMesh {
 
     /// Position of vertex `i`.
     pub fn vertex(&self, i: u32) -> Vec3 {
-        Vec3::from_f32(self.positions[i as usize])
+        from_f32(self.positions[i as usize])
     }
 
     /// The three corners of triangle `t`.
@@ -173,7 +173,7 @@ impl TriMesh {
         (0..self.triangles.len())
             .map(|t| {
                 let [a, b, c] = self.corners(t);
-                (b - a).cross(c - a).norm() * 0.5
+                (b - a).cross(c - a).length() * 0.5
             })
             .sum()
     }
@@ -198,7 +198,7 @@ impl TriMesh {
             .positions
             .iter()
             .map(|&p| {
-                let q = f(Vec3::from_f32(p));
+                let q = f(from_f32(p));
                 [q.x as f32, q.y as f32, q.z as f32]
             })
             .collect();
@@ -242,10 +242,10 @@ fn is_degenerate(positions: &[[f32; 3]], [a, b, c]: [u32; 3]) -> bool {
     if a == b || b == c || a == c {
         return true;
     }
-    let pa = Vec3::from_f32(positions[a as usize]);
-    let pb = Vec3::from_f32(positions[b as usize]);
-    let pc = Vec3::from_f32(positions[c as usize]);
-    (pb - pa).cross(pc - pa).norm2() == 0.0
+    let pa = from_f32(positions[a as usize]);
+    let pb = from_f32(positions[b as usize]);
+    let pc = from_f32(positions[c as usize]);
+    (pb - pa).cross(pc - pa).length_squared() == 0.0
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The whole search: template, cascade, verification, grouping, with
-//! timings. Two pipelines share the cascade: the voxel one ([`voxel`]: volume
+//! timings. Two pipelines share the cascade: the voxel one (`voxel.rs`: volume
 //! and harmonics on the scene's skin voxels) and the surface one
-//! ([`surface`]: curvature on the welded mesh's vertices).
+//! (`surface.rs`: curvature on the welded mesh's vertices).
 
 mod options;
 mod report;

@@ -50,7 +50,7 @@ pub enum TemplateSource {
 /// or a selection sphere's radius (a sphere centred on the surface covers
 /// the whole scene once its radius reaches the diagonal).
 pub(super) fn check_extent(size: f64, scene: &Scene, selection: bool) -> Result<()> {
-    let diagonal = scene.mesh().bounds().extent().norm();
+    let diagonal = scene.mesh().bounds().extent().length();
     if size <= diagonal * (1.0 + 1e-9) {
         return Ok(());
     }

@@ -48,7 +48,7 @@ impl SurfaceTemplate {
         let radius = radius.unwrap_or_else(|| {
             surface
                 .used_vertices()
-                .map(|v| surface.position(v).dist(center))
+                .map(|v| surface.position(v).distance(center))
                 .fold(0.0, f64::max)
         });
         Ok(SurfaceTemplate {

@@ -82,7 +82,7 @@ impl Template {
                 let voxel =
                     nearest_voxel(&spec, &skin, sphere.center).expect("a voxelized mesh has skin");
                 let center = mesh.closest_point(spec.center(voxel)).point;
-                let radius = used.iter().map(|p| p.dist(center)).fold(0.0, f64::max);
+                let radius = used.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
                 let own = OwnVoxels {
                     solid: Solid::new(grid),
                     skin,

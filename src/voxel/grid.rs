@@ -81,7 +81,7 @@ impl GridSpec {
     }
 
     /// A world point in grid units (voxel `i` spans `[i, i + 1)`).
-    pub fn to_grid(&self, p: Vec3) -> Vec3 {
+    pub fn to_grid(self, p: Vec3) -> Vec3 {
         (p - self.origin) * (1.0 / self.voxel_size)
     }
 

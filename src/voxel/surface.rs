@@ -11,7 +11,7 @@
 
 use super::grid::{AtomicGrid, Grid, GridSpec};
 use crate::exec::Backend;
-use crate::math::Vec3;
+use crate::math::{Vec3, dominant_axis};
 use crate::mesh::TriMesh;
 
 /// The voxels touched by the mesh's surface.
@@ -61,7 +61,7 @@ pub(crate) fn for_each_touched_voxel(
         return;
     }
     let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-    let w = normal.dominant_axis();
+    let w = dominant_axis(normal);
     let (u, v) = ((w + 1) % 3, (w + 2) % 3);
     let mut at = [0usize; 3];
     let mut column = |cu: usize, cv: usize, dmin: f64, dmax: f64| {

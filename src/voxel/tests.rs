@@ -155,7 +155,7 @@ fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
     let mut total = 0.0;
     for t in 0..mesh.triangles().len() {
         let [a, b, c] = mesh.corners(t).map(|q| q - p);
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
         let num = a.dot(b.cross(c));
         let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
         total += 2.0 * num.atan2(den);

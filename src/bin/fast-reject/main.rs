@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use fast_reject::clock::now_ms;
 use fast_reject::exec::Backend;
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::load_with_resources;
@@ -141,14 +140,14 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         .with_memory_budget(args.memory_budget.saturating_mul(1 << 20))
         .with_backend(backend);
     let job = || -> Result<MatchReport, String> {
-        let start = now_ms();
+        let start = std::time::Instant::now();
         let scene_mesh = load_file(&args.scene)?;
         let source = match (&args.template, &args.select) {
             (Some(path), _) => TemplateSource::Model(load_file(path)?),
             (None, Some(s)) => parse_select(s)?,
             (None, None) => unreachable!("clap requires one of them"),
         };
-        let load = now_ms() - start;
+        let load = start.elapsed().as_secs_f64() * 1e3;
         let scene = Scene::new(scene_mesh, &scene_options)
             .map_err(|e| format!("scene '{}': {e}", args.scene.display()))?;
         let mut report = search(&scene, &source, &options, &mut ()).map_err(|e| e.to_string())?;
@@ -171,12 +170,12 @@ const DEMO_SCENE: &[u8] = include_bytes!("../../../assets/demo/scene.glb");
 const DEMO_TEMPLATE: &[u8] = include_bytes!("../../../assets/demo/template.glb");
 
 fn run_demo(json: bool) -> Result<(), String> {
-    let start = now_ms();
+    let start = std::time::Instant::now();
     let scene_mesh =
         fast_reject::mesh::io::load(DEMO_SCENE, Some(Format::Gltf)).map_err(|e| e.to_string())?;
     let template = fast_reject::mesh::io::load(DEMO_TEMPLATE, Some(Format::Gltf))
         .map_err(|e| e.to_string())?;
-    let load = now_ms() - start;
+    let load = start.elapsed().as_secs_f64() * 1e3;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).map_err(|e| e.to_string())?;
     let mut report = search(
         &scene,

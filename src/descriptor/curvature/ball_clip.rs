@@ -27,7 +27,7 @@ pub struct ClippedTriangle {
 pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
     let r2 = r * r;
     let q = p.map(|x| x - c);
-    let d2 = q.map(|x| x.norm2());
+    let d2 = q.map(|x| x.length_squared());
     let inside = d2.map(|x| x <= r2);
     let mut edges = [0.0; 3];
     // The boundary of triangle ∩ ball, with chords standing for arcs: each
@@ -42,7 +42,7 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
             len += 1;
         }
         if inside[i] && inside[j] {
-            edges[i] = (b - a).norm();
+            edges[i] = (b - a).length();
             continue;
         }
         let Some(Crossing { t0, t1, length }) = crossing(a, b, d2[i], d2[j], r2) else {
@@ -69,7 +69,7 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
         }
     }
     let n = (p[1] - p[0]).cross(p[2] - p[0]);
-    let twice_area = n.norm();
+    let twice_area = n.length();
     if twice_area == 0.0 {
         return ClippedTriangle { area: 0.0, edges };
     }
@@ -109,7 +109,7 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
             // The arc runs counter-clockwise about n from a to the next
             // point (an entry). Seen from the disk's centre, the two are
             // rho^2 (cos, sin) of the arc's angle apart.
-            segments += circular_segment(rho2, cross, a.dot(b) - h * h, (a - b).norm2());
+            segments += circular_segment(rho2, cross, a.dot(b) - h * h, (a - b).length_squared());
         }
     }
     ClippedTriangle {
@@ -122,9 +122,9 @@ pub fn clip_triangle_to_ball(p: [Vec3; 3], c: Vec3, r: f64) -> ClippedTriangle {
 /// segment `a`-`b`, measured as [`clip_triangle_to_ball`] measures an
 /// edge: for a caller that needs the edges and not the area.
 pub fn segment_in_ball(a: Vec3, b: Vec3, r2: f64) -> f64 {
-    let (a2, b2) = (a.norm2(), b.norm2());
+    let (a2, b2) = (a.length_squared(), b.length_squared());
     if a2 <= r2 && b2 <= r2 {
-        return (b - a).norm();
+        return (b - a).length();
     }
     crossing(a, b, a2, b2, r2).map_or(0.0, |c| c.length)
 }
@@ -145,7 +145,7 @@ fn crossing(a: Vec3, b: Vec3, a2: f64, b2: f64, r2: f64) -> Option<Crossing> {
     // |a + t d|^2 = r^2:  (d.d) t^2 + 2 (a.d) t + (a.a - r^2) = 0. With
     // one end inside the roots straddle it, so disc >= 0 up to rounding.
     let d = b - a;
-    let dd = d.norm2();
+    let dd = d.length_squared();
     let half_b = a.dot(d);
     let disc = half_b * half_b - dd * (a2 - r2);
     if dd == 0.0 || (disc <= 0.0 && (a2 <= r2) == (b2 <= r2)) {
@@ -423,7 +423,7 @@ mod tests {
     #[test]
     fn small_triangle_inside_keeps_its_area() {
         let p = [v(0.0, 0.0, 0.0), v(0.2, 0.0, 0.0), v(0.0, 0.1, 0.1)];
-        let full = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm();
+        let full = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
         let a = clip_triangle_to_ball(p, v(0.05, 0.02, 0.0), 1.0).area;
         assert!((a - full).abs() < 1e-12);
     }
@@ -445,7 +445,7 @@ mod tests {
         let exact = clip_triangle_to_ball(p, c, r).area;
         let flipped = clip_triangle_to_ball([p[0], p[2], p[1]], c, r).area;
         assert!((exact - flipped).abs() < 1e-12);
-        let full = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm();
+        let full = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
         let n = 400;
         let mut inside = 0usize;
         let mut total = 0usize;
@@ -454,7 +454,7 @@ mod tests {
                 let (s, t) = ((i as f64 + 0.33) / n as f64, (j as f64 + 0.33) / n as f64);
                 let q = p[0] + (p[1] - p[0]) * s + (p[2] - p[0]) * t;
                 total += 1;
-                inside += (q.dist(c) <= r) as usize;
+                inside += (q.distance(c) <= r) as usize;
             }
         }
         let sampled = full * inside as f64 / total as f64;

@@ -15,7 +15,7 @@ use crate::math::Vec3;
 pub fn handedness(normal: Vec3, inner: Vec3, outer: Vec3) -> f64 {
     let flat = |m: Vec3| m - normal * normal.dot(m);
     let (a, b) = (flat(inner), flat(outer));
-    let scale = a.norm() * b.norm();
+    let scale = a.length() * b.length();
     if scale > 0.0 {
         normal.dot(a.cross(b)) / scale
     } else {
@@ -44,7 +44,7 @@ impl MirrorTest {
     pub fn new(normal: Vec3, layers: &[Layer], radii: &[f64]) -> MirrorTest {
         let off_normal = |i: usize| {
             let m = layers[i].centroid;
-            (m - normal * normal.dot(m)).norm() >= Self::OFFSET * radii[i]
+            (m - normal * normal.dot(m)).length() >= Self::OFFSET * radii[i]
         };
         let k = layers.len();
         let pair = (1..k)

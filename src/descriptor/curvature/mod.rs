@@ -29,9 +29,11 @@ mod sample;
 mod surface;
 
 pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
-pub use mirror::{MirrorTest, handedness};
+pub(crate) use mirror::MirrorTest;
+pub use mirror::handedness;
 pub use neighbourhood::CurvatureState;
-pub use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexGrid, VertexSample};
+pub use sample::VertexGrid;
+pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 pub use surface::{CurvedEdge, Edge, Surface};
 
 use super::OnionDescriptor;

@@ -175,7 +175,7 @@ pub(super) fn gather(surface: &Surface, v: u32, r: f64, state: &mut CurvatureSta
             // test it again.
             walk.mixed[patch] = walk.current;
             let p = surface.corners(t);
-            let inside = p.map(|q| (q - c).norm2() <= r2);
+            let inside = p.map(|q| (q - c).length_squared() <= r2);
             let meets = inside.iter().any(|&x| x)
                 || closest_point_on_triangle(c, p[0], p[1], p[2], t as usize).distance2 <= r2;
             if !meets {
@@ -198,7 +198,11 @@ pub(super) fn gather(surface: &Surface, v: u32, r: f64, state: &mut CurvatureSta
     });
     // Triangles cut by the smaller ball may now lie wholly inside.
     for t in previous_cut {
-        if surface.corners(t).iter().all(|q| (*q - c).norm2() <= r2) {
+        if surface
+            .corners(t)
+            .iter()
+            .all(|q| (*q - c).length_squared() <= r2)
+        {
             ball.add_whole(surface, t, &mut state.interior);
         } else {
             state.cut.push(t);
@@ -290,7 +294,7 @@ impl LayerBall {
         // hottest test.
         let (centre, radius) = surface.patch_bounds(p);
         let room = self.radius - radius;
-        room >= 0.0 && (centre - self.centre).norm2() <= room * room
+        room >= 0.0 && (centre - self.centre).length_squared() <= room * room
     }
 
     /// Adds patch `p`, wholly inside, with its curved edges.

@@ -63,8 +63,8 @@ impl VertexGrid {
                     .map(|&(_, v)| v)
                     .min_by(|&a, &b| {
                         (surface.position(a) - centre)
-                            .norm2()
-                            .total_cmp(&(surface.position(b) - centre).norm2())
+                            .length_squared()
+                            .total_cmp(&(surface.position(b) - centre).length_squared())
                             .then(a.cmp(&b))
                     })
                     .expect("a run is never empty")
@@ -94,7 +94,7 @@ impl VertexGrid {
                                 .iter()
                                 .take_while(|e| e.0 == key)
                                 .map(|e| e.1)
-                                .filter(|&v| (surface.position(v) - p).norm2() <= reach2),
+                                .filter(|&v| (surface.position(v) - p).length_squared() <= reach2),
                         );
                     }
                 }
@@ -195,7 +195,7 @@ mod tests {
             assert!(
                 sample
                     .iter()
-                    .any(|&u| (s.position(u) - p).norm() <= diagonal)
+                    .any(|&u| (s.position(u) - p).length() <= diagonal)
             );
         }
     }
@@ -212,7 +212,11 @@ mod tests {
         for reach in [0.05, 0.23, 0.5] {
             let brute: Vec<u32> = s
                 .used_vertices()
-                .filter(|&v| points.iter().any(|&p| (s.position(v) - p).norm() <= reach))
+                .filter(|&v| {
+                    points
+                        .iter()
+                        .any(|&p| (s.position(v) - p).length() <= reach)
+                })
                 .collect();
             assert!(!brute.is_empty());
             assert_eq!(grid.within(&s, &points, reach), brute, "reach {reach}");

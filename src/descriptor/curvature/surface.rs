@@ -140,7 +140,7 @@ impl PatchLayout {
                 corners
                     .iter()
                     .flatten()
-                    .map(|q| q.dist(centre))
+                    .map(|q| q.distance(centre))
                     .fold(0.0, f64::max),
             );
             let mut area = 0.0;
@@ -328,7 +328,7 @@ impl Surface {
                     if forward1 == forward2 {
                         n2 = -n2;
                     }
-                    let turn = n1.cross(n2).norm().atan2(n1.dot(n2));
+                    let turn = n1.cross(n2).length().atan2(n1.dot(n2));
                     // Convex when the far corner of the second triangle
                     // lies below the first one's plane.
                     let far = triangles[t2]
@@ -337,8 +337,8 @@ impl Surface {
                         .expect("a triangle has a corner off each edge");
                     let below = (positions[*far as usize] - positions[ends[0] as usize]).dot(n1);
                     let angle = if below <= 0.0 { turn } else { -turn };
-                    let mean = n1 * (1.0 / n1.norm()) + n2 * (1.0 / n2.norm());
-                    let len = mean.norm();
+                    let mean = n1 * (1.0 / n1.length()) + n2 * (1.0 / n2.length());
+                    let len = mean.length();
                     if len > 0.0 {
                         (angle, mean * (1.0 / len))
                     } else {
@@ -393,7 +393,7 @@ impl Surface {
                     positions[edge.ends[0] as usize],
                     positions[edge.ends[1] as usize],
                 );
-                let length = (b - a).norm();
+                let length = (b - a).length();
                 CurvedEdge {
                     direction: (b - a) * (1.0 / length),
                     normal: edge.normal,
@@ -419,7 +419,7 @@ impl Surface {
             .collect();
         let areas = corners
             .iter()
-            .map(|p| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm())
+            .map(|p| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length())
             .collect();
         let mut surface = Surface {
             positions,
@@ -543,7 +543,7 @@ impl Surface {
             let p = self.corners(t);
             acc + (p[1] - p[0]).cross(p[2] - p[0])
         });
-        let len = sum.norm();
+        let len = sum.length();
         if len > 0.0 {
             sum * (1.0 / len)
         } else {
@@ -560,8 +560,8 @@ impl Surface {
     pub fn nearest_vertex(&self, p: Vec3) -> Option<u32> {
         self.used_vertices().min_by(|&a, &b| {
             (self.position(a) - p)
-                .norm2()
-                .total_cmp(&(self.position(b) - p).norm2())
+                .length_squared()
+                .total_cmp(&(self.position(b) - p).length_squared())
         })
     }
 

@@ -5,7 +5,11 @@ use crate::mesh::shapes::uv_sphere;
 
 fn nearest_vertex(s: &Surface, p: Vec3) -> u32 {
     (0..s.vertex_count() as u32)
-        .min_by(|&a, &b| s.position(a).dist(p).total_cmp(&s.position(b).dist(p)))
+        .min_by(|&a, &b| {
+            s.position(a)
+                .distance(p)
+                .total_cmp(&s.position(b).distance(p))
+        })
         .unwrap()
 }
 

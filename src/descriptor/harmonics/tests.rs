@@ -205,9 +205,9 @@ fn signatures_at(
         .iter_ones()
         .min_by(|a, b| {
             let da =
-                Vec3::new(a[0] as f64 + 0.5, a[1] as f64 + 0.5, a[2] as f64 + 0.5).dist(target);
+                Vec3::new(a[0] as f64 + 0.5, a[1] as f64 + 0.5, a[2] as f64 + 0.5).distance(target);
             let db =
-                Vec3::new(b[0] as f64 + 0.5, b[1] as f64 + 0.5, b[2] as f64 + 0.5).dist(target);
+                Vec3::new(b[0] as f64 + 0.5, b[1] as f64 + 0.5, b[2] as f64 + 0.5).distance(target);
             da.total_cmp(&db)
         })
         .unwrap();
@@ -297,7 +297,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     let tv = skin(tsolid.bits(), Backend::Serial)
         .iter_ones()
         .min_by(|a, b| {
-            let d = |v: &[u16; 3]| tspec.center(*v).dist(Vec3::new(0.0, 0.6, 0.0));
+            let d = |v: &[u16; 3]| tspec.center(*v).distance(Vec3::new(0.0, 0.6, 0.0));
             d(a).total_cmp(&d(b))
         })
         .unwrap();

@@ -93,7 +93,7 @@ fn patches_are_small_connected_and_cover_every_triangle_once() {
             assert!(
                 s.corners(t)
                     .iter()
-                    .all(|q| q.dist(centre) <= radius + 1e-12)
+                    .all(|q| q.distance(centre) <= radius + 1e-12)
             );
         }
         for &b in s.patch_border(p) {
