@@ -7,9 +7,6 @@
 //! change, instead of aborting the process or trapping the wasm module
 //! halfway through. Estimates are upper bounds, not measurements.
 
-use std::fmt;
-
-use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::voxel::{GridSpec, MAX_LEVEL};
 
@@ -95,91 +92,10 @@ pub(crate) fn ball_bytes(radius: f64, level: u32) -> u64 {
     }
 }
 
-/// What a search or a scene needs, item by item.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MemoryEstimate {
-    items: Vec<(&'static str, u64)>,
-}
-
-impl MemoryEstimate {
-    /// An empty estimate.
-    pub(crate) fn new() -> MemoryEstimate {
-        MemoryEstimate::default()
-    }
-
-    /// Adds `bytes` for `what`.
-    pub(crate) fn add(&mut self, what: &'static str, bytes: u64) -> &mut Self {
-        if bytes > 0 {
-            match self.items.iter_mut().find(|(w, _)| *w == what) {
-                Some((_, b)) => *b = b.saturating_add(bytes),
-                None => self.items.push((what, bytes)),
-            }
-        }
-        self
-    }
-
-    /// The sum.
-    pub fn total(&self) -> u64 {
-        self.items
-            .iter()
-            .fold(0u64, |s, (_, b)| s.saturating_add(*b))
-    }
-
-    /// The largest item.
-    pub fn largest(&self) -> Option<(&'static str, u64)> {
-        self.items.iter().copied().max_by_key(|&(_, b)| b)
-    }
-
-    /// Fails with [`Error::OverBudget`] when the total passes `budget`;
-    /// `advice` says what to change.
-    pub(crate) fn check(&self, budget: u64, advice: impl FnOnce() -> String) -> Result<()> {
-        if self.total() <= budget {
-            return Ok(());
-        }
-        Err(Error::OverBudget {
-            estimate: self.clone(),
-            budget,
-            advice: advice(),
-        })
-    }
-}
-
-/// Items largest first, in MiB.
-impl fmt::Display for MemoryEstimate {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut items = self.items.clone();
-        items.sort_by_key(|&(_, b)| std::cmp::Reverse(b));
-        for (i, (what, bytes)) in items.iter().enumerate() {
-            if i > 0 {
-                f.write_str(", ")?;
-            }
-            write!(f, "{what} {}", mib(*bytes))?;
-        }
-        Ok(())
-    }
-}
-
-/// Bytes in MiB for messages: "12 MiB", or "a few EiB" for nonsense.
-pub(crate) fn mib(bytes: u64) -> String {
-    if bytes == u64::MAX {
-        "more than 16 EiB".into()
-    } else {
-        format!("{} MiB", bytes.div_ceil(1 << 20))
-    }
-}
-
-/// A length for messages: fixed point where readable, else scientific.
-pub(crate) fn length(x: f64) -> String {
-    if (1e-3..1e6).contains(&x.abs()) {
-        format!("{x:.4}")
-    } else {
-        format!("{x:.3e}")
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::MemoryEstimate;
     use crate::math::Vec3;
     use crate::voxel::Ball;
 

@@ -90,9 +90,11 @@ pub enum Error {
     /// The mesh, as the file places it, passes the loaders' size limits.
     #[error(
         "the mesh would have {vertices} vertices and {triangles} triangles once every instance is placed, above the limit of {} of each or {} in all: split the model or place fewer copies",
-        crate::mesh::io::MAX_VERTICES, crate::budget::mib(*.max_bytes)
+        .limit, mib(*.max_bytes)
     )]
     MeshTooLarge {
+        /// The loaders' limit on vertices and on triangles.
+        limit: u64,
         /// Vertices placed so far, with the copy that passed the limit.
         vertices: u64,
         /// Triangles placed so far, with that copy.
@@ -144,11 +146,11 @@ pub enum Error {
     /// budget; nothing was allocated for them.
     #[error(
         "not enough memory: this needs about {} ({estimate}), above the budget of {}; {advice}",
-        crate::budget::mib(.estimate.total()), crate::budget::mib(*.budget)
+        mib(.estimate.total()), mib(*.budget)
     )]
     OverBudget {
         /// What was estimated, item by item.
-        estimate: crate::budget::MemoryEstimate,
+        estimate: MemoryEstimate,
         /// The budget in bytes.
         budget: u64,
         /// What would work, or why nothing would.
@@ -190,7 +192,7 @@ pub enum Error {
     /// The template is larger than the whole scene, so it cannot occur in it.
     #[error(
         "the template ({} across) is larger than the whole scene ({} across), so it cannot occur in it; {advice}",
-        crate::budget::length(*.template_size), crate::budget::length(*.scene_size)
+        length(*.template_size), length(*.scene_size)
     )]
     TemplateLargerThanScene {
         /// The template's extent: the diameter of its outer onion ball.
@@ -251,5 +253,87 @@ impl Error {
             name,
             message: message.into(),
         }
+    }
+}
+
+/// What a search or a scene needs, item by item.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MemoryEstimate {
+    items: Vec<(&'static str, u64)>,
+}
+
+impl MemoryEstimate {
+    /// An empty estimate.
+    pub(crate) fn new() -> MemoryEstimate {
+        MemoryEstimate::default()
+    }
+
+    /// Adds `bytes` for `what`.
+    pub(crate) fn add(&mut self, what: &'static str, bytes: u64) -> &mut Self {
+        if bytes > 0 {
+            match self.items.iter_mut().find(|(w, _)| *w == what) {
+                Some((_, b)) => *b = b.saturating_add(bytes),
+                None => self.items.push((what, bytes)),
+            }
+        }
+        self
+    }
+
+    /// The sum.
+    pub fn total(&self) -> u64 {
+        self.items
+            .iter()
+            .fold(0u64, |s, (_, b)| s.saturating_add(*b))
+    }
+
+    /// The largest item.
+    pub fn largest(&self) -> Option<(&'static str, u64)> {
+        self.items.iter().copied().max_by_key(|&(_, b)| b)
+    }
+
+    /// Fails with [`Error::OverBudget`] when the total passes `budget`;
+    /// `advice` says what to change.
+    pub(crate) fn check(&self, budget: u64, advice: impl FnOnce() -> String) -> Result<()> {
+        if self.total() <= budget {
+            return Ok(());
+        }
+        Err(Error::OverBudget {
+            estimate: self.clone(),
+            budget,
+            advice: advice(),
+        })
+    }
+}
+
+/// Items largest first, in MiB.
+impl fmt::Display for MemoryEstimate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut items = self.items.clone();
+        items.sort_by_key(|&(_, b)| std::cmp::Reverse(b));
+        for (i, (what, bytes)) in items.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{what} {}", mib(*bytes))?;
+        }
+        Ok(())
+    }
+}
+
+/// Bytes in MiB for messages: "12 MiB", or "a few EiB" for nonsense.
+pub(crate) fn mib(bytes: u64) -> String {
+    if bytes == u64::MAX {
+        "more than 16 EiB".into()
+    } else {
+        format!("{} MiB", bytes.div_ceil(1 << 20))
+    }
+}
+
+/// A length for messages: fixed point where readable, else scientific.
+pub(crate) fn length(x: f64) -> String {
+    if (1e-3..1e6).contains(&x.abs()) {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.3e}")
     }
 }

@@ -77,7 +77,7 @@ pub mod wasm;
 
 pub use cascade::{LayerStats, Observer};
 pub use descriptor::ClutterPolicy;
-pub use error::{Error, Format, Result};
+pub use error::{Error, Format, MemoryEstimate, Result};
 pub use exec::Backend;
 pub use instances::Instance;
 pub use mesh::TriMesh;

@@ -3,11 +3,12 @@
 
 use super::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
-use crate::budget::{MemoryEstimate, candidate_bytes, mesh_bytes, surface_bytes};
+use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
 use crate::cascade::{Observer, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
 use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
+use crate::error::MemoryEstimate;
 use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;

@@ -57,7 +57,7 @@ pub(super) fn check_extent(size: f64, scene: &Scene, selection: bool) -> Result<
     let advice = if selection {
         format!(
             "the sphere takes in all of it: pick a radius that holds one part, below {}",
-            crate::budget::length(diagonal)
+            crate::error::length(diagonal)
         )
     } else {
         format!(

@@ -531,6 +531,7 @@ fn check_size(vertices: usize, triangles: usize, max_bytes: u64) -> Result<()> {
     let bytes = 12 * (vertices as u64 + triangles as u64);
     if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES || bytes > max_bytes {
         return Err(Error::MeshTooLarge {
+            limit: MAX_VERTICES as u64,
             vertices: vertices as u64,
             triangles: triangles as u64,
             max_bytes: max_bytes.min(12 * (MAX_VERTICES + MAX_TRIANGLES) as u64),
