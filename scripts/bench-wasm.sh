@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Native against wasm (plain in Node, plain and threaded in headless
 # Chromium with 2 threads) on zoo-bunny and crowd-rocker, with peak wasm
-# memory; prints the Markdown table of README.md. BENCH_RUNS=N (default 3).
+# memory; prints the Markdown table of docs/BENCHMARKS.md. BENCH_RUNS=N (default 3).
 # On a shared machine, BENCH_NICE=-10 (root) runs it ahead of other work:
 # a new session whose scheduler group gets that priority.
 set -euo pipefail
