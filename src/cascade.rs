@@ -143,3 +143,257 @@ pub fn run_cascade(
     }
     Ok((survivors, stats))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// A descriptor read from a table: layer `l` adds `steps[p][l]` to
+    /// point `p`'s running distance. It records every (point, layer) it
+    /// computes, and checks that each point gets its layers in `order`.
+    struct Table {
+        name: &'static str,
+        steps: Vec<Vec<f64>>,
+        order: Vec<usize>,
+        threshold: f64,
+        computed: Mutex<Vec<(u32, usize)>>,
+    }
+
+    impl Table {
+        fn new(
+            name: &'static str,
+            steps: Vec<Vec<f64>>,
+            order: Vec<usize>,
+            threshold: f64,
+        ) -> Self {
+            Table {
+                name,
+                steps,
+                order,
+                threshold,
+                computed: Mutex::new(Vec::new()),
+            }
+        }
+
+        fn computed(&self) -> Vec<(u32, usize)> {
+            self.computed.lock().unwrap().clone()
+        }
+    }
+
+    impl OnionDescriptor for Table {
+        /// The layers computed so far and the running distance.
+        type State = (Vec<usize>, f64);
+
+        fn name(&self) -> &'static str {
+            self.name
+        }
+
+        fn layers(&self) -> usize {
+            self.order.len()
+        }
+
+        fn radius(&self, layer: usize) -> f64 {
+            0.5 * (layer + 1) as f64
+        }
+
+        fn threshold(&self) -> f64 {
+            self.threshold
+        }
+
+        fn order(&self, _: &[u32], _: Backend) -> Vec<usize> {
+            self.order.clone()
+        }
+
+        fn start(&self, _: u32) -> Self::State {
+            (Vec::new(), 0.0)
+        }
+
+        fn extend(&self, point: u32, layer: usize, state: &mut Self::State) -> f64 {
+            assert_eq!(
+                layer,
+                self.order[state.0.len()],
+                "point {point}: layer {layer} after {:?}",
+                state.0
+            );
+            self.computed.lock().unwrap().push((point, layer));
+            state.0.push(layer);
+            state.1 += self.steps[point as usize][layer];
+            state.1
+        }
+    }
+
+    /// Six points, three layers computed in the order 2, 0, 1, threshold 1.
+    fn six_points() -> Table {
+        Table::new(
+            "table",
+            vec![
+                vec![0.1, 0.1, 0.1],  // passes every layer: 0.3
+                vec![0.0, 0.0, 1.5],  // fails the first layer computed (2)
+                vec![0.9, 0.0, 0.2],  // fails the second (layer 0): 1.1
+                vec![0.2, 0.75, 0.1], // passes two, fails the last (1): 1.05
+                vec![0.5, 0.0, 0.5],  // ends exactly at the threshold: passes
+                vec![0.0, 0.0, 0.0],  // passes at 0
+            ],
+            vec![2, 0, 1],
+            1.0,
+        )
+    }
+
+    fn run(
+        stages: &[&dyn Stage],
+        candidates: Vec<u32>,
+        backend: Backend,
+    ) -> (Vec<Survivor>, Vec<LayerStats>) {
+        run_cascade(stages, candidates, backend, &mut ()).unwrap()
+    }
+
+    /// The statistics without the times.
+    fn counts(stats: &[LayerStats]) -> Vec<(&'static str, usize, f64, usize, usize)> {
+        stats
+            .iter()
+            .map(|s| (s.descriptor, s.layer, s.radius, s.candidates, s.survivors))
+            .collect()
+    }
+
+    #[test]
+    fn layers_run_in_order_each_on_the_survivors_of_the_one_before() {
+        let t = six_points();
+        let (survivors, _) = run(&[&t], (0..6).collect(), Backend::Serial);
+        // Serially the cascade computes one whole layer, in candidate
+        // order, before the next: layer 2 for all six, layer 0 for the five
+        // left, layer 1 for the four left.
+        let expected: Vec<(u32, usize)> = [0, 1, 2, 3, 4, 5]
+            .map(|p| (p, 2))
+            .into_iter()
+            .chain([0, 2, 3, 4, 5].map(|p| (p, 0)))
+            .chain([0, 3, 4, 5].map(|p| (p, 1)))
+            .collect();
+        assert_eq!(t.computed(), expected);
+        let points: Vec<u32> = survivors.iter().map(|s| s.point).collect();
+        assert_eq!(points, [0, 4, 5]);
+        let distances: Vec<f64> = survivors.iter().map(|s| s.distance).collect();
+        assert_eq!(distances, [0.1 + 0.1 + 0.1, 0.5 + 0.5, 0.0]);
+    }
+
+    #[test]
+    fn layer_statistics_count_each_layers_candidates_and_survivors() {
+        let first = six_points();
+        // A second stage, innermost first, that drops point 0 at its
+        // second layer.
+        let mut steps = vec![vec![0.0; 2]; 6];
+        steps[0][1] = 3.0;
+        let second = Table::new("second", steps, vec![0, 1], 2.0);
+        let (survivors, stats) = run(&[&first, &second], (0..6).collect(), Backend::Serial);
+        assert_eq!(
+            counts(&stats),
+            [
+                ("table", 3, 1.5, 6, 5),
+                ("table", 1, 0.5, 5, 4),
+                ("table", 2, 1.0, 4, 3),
+                ("second", 1, 0.5, 3, 3),
+                ("second", 2, 1.0, 3, 2),
+            ]
+        );
+        // Each layer starts from the survivors of the one before, across
+        // stages too, and the last survivors are what the cascade returns.
+        for pair in stats.windows(2) {
+            assert_eq!(pair[1].candidates, pair[0].survivors, "{pair:?}");
+        }
+        assert_eq!(stats.last().unwrap().survivors, survivors.len());
+        assert!(stats.iter().all(|s| s.ms >= 0.0 && s.ms.is_finite()));
+        // The second stage saw only the first one's survivors, and its
+        // distances are the ones returned.
+        let seen: Vec<u32> = second.computed().iter().map(|&(p, _)| p).collect();
+        assert_eq!(seen, [0, 4, 5, 0, 4, 5]);
+        assert_eq!(
+            survivors,
+            [4, 5].map(|point| Survivor {
+                point,
+                distance: 0.0
+            })
+        );
+    }
+
+    #[test]
+    fn without_stages_every_candidate_survives_at_distance_zero() {
+        let (survivors, stats) = run(&[], vec![4, 2, 9], Backend::Parallel);
+        assert!(stats.is_empty());
+        assert_eq!(
+            survivors,
+            [4, 2, 9].map(|point| Survivor {
+                point,
+                distance: 0.0
+            })
+        );
+    }
+
+    #[test]
+    fn an_observer_that_breaks_cancels_with_the_typed_error() {
+        for backend in [Backend::Serial, Backend::Parallel] {
+            let first = six_points();
+            let second = Table::new("second", vec![vec![0.0; 2]; 6], vec![0, 1], 2.0);
+            // Break at the second layer of the first stage, then at the
+            // first layer of the second stage.
+            for stop_at in [2, 4] {
+                let mut seen = Vec::new();
+                let mut observer = |s: &LayerStats| {
+                    seen.push((s.descriptor, s.layer));
+                    if seen.len() == stop_at {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
+                    }
+                };
+                let computed_before = first.computed().len() + second.computed().len();
+                let r = run_cascade(&[&first, &second], (0..6).collect(), backend, &mut observer);
+                assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
+                assert_eq!(seen.len(), stop_at, "{backend:?}: {seen:?}");
+                // Nothing is computed after the layer that broke.
+                let computed = first.computed().len() + second.computed().len() - computed_before;
+                let expected = if stop_at == 2 { 6 + 5 } else { 6 + 5 + 4 + 3 };
+                assert_eq!(computed, expected, "{backend:?}, stop at {stop_at}");
+            }
+        }
+    }
+
+    /// A larger table, from a fixed pseudo-random sequence.
+    fn random_table(points: usize, layers: usize, seed: u64) -> Table {
+        let mut state = seed;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let steps = (0..points)
+            .map(|_| (0..layers).map(|_| 0.3 * next()).collect())
+            .collect();
+        Table::new(
+            "random",
+            steps,
+            (0..layers).rev().collect(),
+            0.5 * layers as f64 * 0.3,
+        )
+    }
+
+    #[test]
+    fn serial_and_parallel_backends_give_the_same_result() {
+        let runs = [Backend::Serial, Backend::Parallel].map(|backend| {
+            let a = random_table(5000, 6, 0x9e37_79b9_7f4a_7c15);
+            let b = random_table(5000, 4, 0x2545_f491_4f6c_dd1d);
+            let (survivors, stats) = run(&[&a, &b], (0..5000).rev().collect(), backend);
+            let mut computed = a.computed();
+            computed.extend(b.computed());
+            computed.sort_unstable();
+            (survivors, counts(&stats), computed)
+        });
+        let [serial, parallel] = &runs;
+        assert!(
+            !serial.0.is_empty() && serial.0.len() < 5000,
+            "{}",
+            serial.0.len()
+        );
+        assert_eq!(serial, parallel);
+    }
+}

@@ -113,3 +113,6 @@ pub(super) fn snap_selection(scene: &Scene, center: [f64; 3], radius: f64) -> Re
     }
     Ok(nearest.point)
 }
+
+#[cfg(test)]
+mod tests;

@@ -444,11 +444,7 @@ mod tests {
     #[test]
     fn coarse_levels_agree_with_exact_counts() {
         // A real, irregular model, at the radii the pipeline uses.
-        let path = &crate::shared_path("models/cow.obj");
-        let Ok(bytes) = std::fs::read(path) else {
-            return;
-        };
-        let m = crate::mesh::io::load(&bytes, None).unwrap();
+        let m = crate::mesh::io::load(&crate::shared_bytes("models/cow.obj"), None).unwrap();
         let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
         let solid = Solid::new(voxelize(&m, &spec, Backend::Parallel));
         let skin: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)

@@ -22,7 +22,8 @@ pub fn scene_dir(name: &str) -> PathBuf {
     let dir = shared.join("scenes").join(name);
     assert!(
         dir.join("truth.json").exists(),
-        "shared scene {} not found: the tests expect ../shared beside the repository",
+        "shared scene {} not found: this test needs the benchmark data, as ../shared beside \
+         the crate or in the folder FAST_REJECT_SHARED names",
         dir.display()
     );
     dir

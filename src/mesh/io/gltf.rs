@@ -745,31 +745,22 @@ mod tests {
         assert!(assemble(Mode::Triangles, &[0, 1]).is_err());
     }
 
-    fn scene_bytes(name: &str) -> Option<Vec<u8>> {
-        let p = crate::shared_path(&format!("scenes/{name}"));
-        std::fs::read(p).ok()
-    }
+    use crate::math::Vec3;
+    use crate::mesh::io::fixtures;
 
     #[test]
     fn every_truncation_of_a_glb_is_an_error() {
-        let Some(glb) = scene_bytes("fused-homer/template.glb") else {
-            return;
-        };
-        // Every prefix up to the JSON's end and a spread of later ones.
-        let json_len = u32::from_le_bytes([glb[12], glb[13], glb[14], glb[15]]) as usize;
-        let cuts = (0..json_len + 40).chain((json_len..glb.len()).step_by(997));
-        for cut in cuts {
+        let glb = fixtures::INSTANCES_GLB;
+        for cut in 0..glb.len() {
             let r = load(&glb[..cut], None);
             assert!(r.is_err(), "prefix of {cut} bytes parsed");
         }
-        assert!(load(&glb, None).is_ok());
+        assert!(load(glb, None).is_ok());
     }
 
     #[test]
     fn garbage_inside_a_glb_is_an_error() {
-        let Some(mut glb) = scene_bytes("fused-homer/template.glb") else {
-            return;
-        };
+        let mut glb = fixtures::INSTANCES_GLB.to_vec();
         // Break the JSON chunk.
         for b in &mut glb[20..60] {
             *b = b'#';
@@ -778,10 +769,52 @@ mod tests {
     }
 
     #[test]
+    fn a_glb_places_its_mesh_once_per_node() {
+        let m = load(fixtures::INSTANCES_GLB, None).unwrap();
+        assert_eq!(m.triangles().len(), 3 * fixtures::TRIANGLES);
+        assert_eq!(m.positions().len(), 3 * fixtures::VERTICES);
+        assert_eq!(m.parts().len(), 3);
+        assert!(m.parts().iter().all(|p| p.source == m.parts()[0].source));
+        // Each instance: (centre, radius, where the mesh's first vertex
+        // (-0.526, 0.851, 0) lands).
+        let v0 = Vec3::new(-0.525_731_1, 0.850_650_8, 0.0);
+        let expected = [
+            (
+                Vec3::new(6.0, 0.0, 0.0),
+                2.0,
+                Vec3::new(6.0, 0.0, 0.0) + v0 * 2.0,
+            ),
+            (
+                Vec3::new(-6.0, 0.0, 0.0),
+                2.0,
+                Vec3::new(-6.0 - 2.0 * v0.y, 2.0 * v0.x, 0.0),
+            ),
+            (Vec3::ZERO, 1.0, v0),
+        ];
+        let mut found = [false; 3];
+        for part in m.parts() {
+            assert_eq!(part.vertex_count as usize, fixtures::VERTICES);
+            assert_eq!(part.triangle_count as usize, fixtures::TRIANGLES);
+            let vertices = part.first_vertex..part.first_vertex + part.vertex_count;
+            let first = m.vertex(part.first_vertex);
+            let k = expected
+                .iter()
+                .position(|&(_, _, at)| first.dist(at) < 1e-5)
+                .unwrap_or_else(|| panic!("no instance has its first vertex at {first:?}"));
+            let (centre, radius, _) = expected[k];
+            for v in vertices {
+                let r = m.vertex(v).dist(centre);
+                assert!((r - radius).abs() < 1e-5, "instance {k}: vertex {v} at {r}");
+            }
+            assert!(!found[k], "instance {k} twice");
+            found[k] = true;
+        }
+    }
+
+    #[test]
     fn a_shared_scene_loads_with_its_instances() {
-        let Some(glb) = scene_bytes("zoo-bunny/scene.glb") else {
-            return;
-        };
+        // A real scene from the benchmark, against its known size.
+        let glb = crate::shared_bytes("scenes/zoo-bunny/scene.glb");
         let m = load(&glb, None).unwrap();
         assert_eq!(m.triangles().len() + m.degenerate_dropped(), 334_962);
     }

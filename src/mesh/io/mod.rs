@@ -135,6 +135,28 @@ fn looks_like_obj(text: &[u8]) -> bool {
     statements > 0
 }
 
+/// The loader tests' fixtures, written by `tests/fixtures/make_fixtures.py`:
+/// one unit icosphere (42 vertices, 80 triangles, every vertex at distance 1
+/// from the origin) in each format, compiled in so that the tests need
+/// neither `../shared` nor a file system (wasmtime).
+#[cfg(test)]
+pub(crate) mod fixtures {
+    /// Vertices and triangles of the icosphere.
+    pub const VERTICES: usize = 42;
+    pub const TRIANGLES: usize = 80;
+    /// With texture coordinates and normals: `f v/vt/vn`.
+    pub const OBJ: &[u8] = include_bytes!("../../../tests/fixtures/icosphere.obj");
+    /// Binary little-endian, with normals and colours on the vertices.
+    pub const PLY: &[u8] = include_bytes!("../../../tests/fixtures/icosphere.ply");
+    /// Binary, with facet normals.
+    pub const STL: &[u8] = include_bytes!("../../../tests/fixtures/icosphere.stl");
+    /// The icosphere on three nodes: radius 2 at (6, 0, 0), radius 2 at
+    /// (-6, 0, 0) turned 90 degrees about z (both under a root scaled 2),
+    /// radius 1 at the origin.
+    pub const INSTANCES_GLB: &[u8] =
+        include_bytes!("../../../tests/fixtures/icosphere-instances.glb");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,5 +189,53 @@ mod tests {
         for f in [Format::Gltf, Format::Obj, Format::Ply, Format::Stl] {
             assert!(matches!(load(b"", Some(f)), Err(Error::Malformed { .. })));
         }
+    }
+
+    /// The triangles as sorted corner coordinates, each triangle turned to
+    /// start at its smallest corner: the same for any vertex order.
+    fn triangle_set(m: &TriMesh) -> Vec<[[u32; 3]; 3]> {
+        let mut set: Vec<[[u32; 3]; 3]> = m
+            .triangles()
+            .iter()
+            .map(|t| {
+                let c = t.map(|i| m.positions()[i as usize].map(f32::to_bits));
+                let first = (0..3).min_by_key(|&k| c[k]).unwrap();
+                [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
+            })
+            .collect();
+        set.sort_unstable();
+        set
+    }
+
+    #[test]
+    fn the_icosphere_fixtures_hold_the_same_mesh_in_every_format() {
+        let obj = load(fixtures::OBJ, None).unwrap();
+        assert_eq!(obj.positions().len(), fixtures::VERTICES);
+        assert_eq!(obj.triangles().len(), fixtures::TRIANGLES);
+        for p in obj.positions() {
+            let r = p.map(f64::from).iter().map(|c| c * c).sum::<f64>().sqrt();
+            assert!((r - 1.0).abs() < 1e-6, "{p:?} at {r}");
+        }
+        let expected = triangle_set(&obj);
+        for (format, bytes) in [(Format::Ply, fixtures::PLY), (Format::Stl, fixtures::STL)] {
+            assert_eq!(sniff(bytes), Some(format));
+            let m = load(bytes, None).unwrap();
+            assert_eq!(m.positions().len(), fixtures::VERTICES, "{format}");
+            assert_eq!(triangle_set(&m), expected, "{format}");
+        }
+        // The glTF's untransformed instance is the same icosphere.
+        let glb = load(fixtures::INSTANCES_GLB, None).unwrap();
+        let origin = glb
+            .parts()
+            .iter()
+            .find(|p| glb.vertex(p.first_vertex).norm() < 1.5)
+            .unwrap();
+        let part = glb
+            .filter_triangles(|t| {
+                (origin.first_triangle..origin.first_triangle + origin.triangle_count)
+                    .contains(&(t as u32))
+            })
+            .unwrap();
+        assert_eq!(triangle_set(&part), expected);
     }
 }

@@ -329,12 +329,15 @@ mod tests {
     }
 
     #[test]
+    fn an_exported_file_with_texture_coordinates_and_normals() {
+        let m = parse(crate::mesh::io::fixtures::OBJ).unwrap();
+        assert_eq!(m.positions().len(), crate::mesh::io::fixtures::VERTICES);
+        assert_eq!(m.triangles().len(), crate::mesh::io::fixtures::TRIANGLES);
+    }
+
+    #[test]
     fn real_file_cow() {
-        let path = &crate::shared_path("models/cow.obj");
-        let Ok(bytes) = std::fs::read(path) else {
-            return;
-        };
-        let m = parse(&bytes).unwrap();
+        let m = parse(&crate::shared_bytes("models/cow.obj")).unwrap();
         assert_eq!(m.positions().len(), 2903);
         assert_eq!(m.triangles().len(), 5804);
     }

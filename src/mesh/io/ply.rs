@@ -1176,12 +1176,15 @@ mod tests {
     }
 
     #[test]
+    fn an_exported_binary_file_with_normals_and_colours() {
+        let m = parse(crate::mesh::io::fixtures::PLY).unwrap();
+        assert_eq!(m.positions().len(), crate::mesh::io::fixtures::VERTICES);
+        assert_eq!(m.triangles().len(), crate::mesh::io::fixtures::TRIANGLES);
+    }
+
+    #[test]
     fn real_file_horse() {
-        let path = &crate::shared_path("models/horse.ply");
-        let Ok(bytes) = std::fs::read(path) else {
-            return;
-        };
-        let m = parse(&bytes).unwrap();
+        let m = parse(&crate::shared_bytes("models/horse.ply")).unwrap();
         assert_eq!(m.positions().len(), 48485);
         assert_eq!(m.triangles().len(), 96966);
     }

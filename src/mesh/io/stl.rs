@@ -301,6 +301,7 @@ fn show(word: &[u8]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::io::fixtures;
 
     /// A binary STL of the given triangles, with `header` at the start.
     fn binary_stl(header: &[u8], triangles: &[[[f32; 3]; 3]]) -> Vec<u8> {
@@ -446,19 +447,27 @@ mod tests {
     }
 
     #[test]
-    fn real_file_cow_round_trip() {
-        let path = &crate::shared_path("models/cow.obj");
-        let Ok(bytes) = std::fs::read(path) else {
-            return;
-        };
-        let cow = super::super::load(&bytes, Some(Format::Obj)).unwrap();
-        let triangles: Vec<[[f32; 3]; 3]> = cow
+    fn an_exported_binary_file_is_welded_to_its_vertices() {
+        let m = parse(fixtures::STL).unwrap();
+        assert_eq!(m.positions().len(), fixtures::VERTICES);
+        assert_eq!(m.triangles().len(), fixtures::TRIANGLES);
+    }
+
+    #[test]
+    fn a_closed_mesh_round_trips_through_binary_stl() {
+        // Every vertex is written once per triangle using it (six times,
+        // or five at the icosahedron's corners); welding finds each once.
+        let obj = super::super::load(fixtures::OBJ, Some(Format::Obj)).unwrap();
+        let triangles: Vec<[[f32; 3]; 3]> = obj
             .triangles()
             .iter()
-            .map(|t| t.map(|i| cow.positions()[i as usize]))
+            .map(|t| t.map(|i| obj.positions()[i as usize]))
             .collect();
-        let m = parse(&binary_stl(b"solid cow", &triangles)).unwrap();
-        assert_eq!(m.triangles().len(), cow.triangles().len());
-        assert_eq!(m.positions().len(), 2903);
+        let m = parse(&binary_stl(b"solid icosphere", &triangles)).unwrap();
+        assert_eq!(m.triangles().len(), obj.triangles().len());
+        assert_eq!(m.positions().len(), fixtures::VERTICES);
+        for (t, corners) in m.triangles().iter().zip(&triangles) {
+            assert_eq!(t.map(|i| m.positions()[i as usize]), *corners);
+        }
     }
 }
