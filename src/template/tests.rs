@@ -46,7 +46,7 @@ fn cube(side: f64) -> TemplateSource {
 fn a_selection_is_snapped_to_the_surface_with_evenly_spaced_radii() {
     let scene = sphere_scene(32);
     let t = voxel_template(&selection([1.3, 0.0, 0.0], 0.8), &scene, 4).unwrap();
-    assert!((t.center().norm() - 1.0).abs() < 0.01, "{:?}", t.center());
+    assert!((t.center().length() - 1.0).abs() < 0.01, "{:?}", t.center());
     assert!(t.center().x > 0.99, "{:?}", t.center());
     assert_eq!(t.radius(), 0.8);
     for (r, expected) in t.radii().iter().zip([0.2, 0.4, 0.6, 0.8]) {
@@ -55,7 +55,7 @@ fn a_selection_is_snapped_to_the_surface_with_evenly_spaced_radii() {
     assert_eq!(t.radii().len(), 4);
     let s = surface_template(&selection([1.3, 0.0, 0.0], 0.8), &scene, 4).unwrap();
     assert_eq!(s.radii(), t.radii());
-    assert!(s.center().dist(t.center()) < 0.1);
+    assert!(s.center().distance(t.center()) < 0.1);
 }
 
 #[test]
@@ -152,7 +152,7 @@ fn a_selection_that_misses_the_scene_says_how_far_it_is() {
 #[test]
 fn a_template_larger_than_the_scene_is_refused_with_advice() {
     let scene = sphere_scene(32);
-    let diagonal = scene.mesh().bounds().extent().norm();
+    let diagonal = scene.mesh().bounds().extent().length();
     // A model in millimetres against a scene in metres.
     let huge = cube(2000.0);
     for e in [

@@ -799,11 +799,11 @@ mod tests {
             let first = m.vertex(part.first_vertex);
             let k = expected
                 .iter()
-                .position(|&(_, _, at)| first.dist(at) < 1e-5)
+                .position(|&(_, _, at)| first.distance(at) < 1e-5)
                 .unwrap_or_else(|| panic!("no instance has its first vertex at {first:?}"));
             let (centre, radius, _) = expected[k];
             for v in vertices {
-                let r = m.vertex(v).dist(centre);
+                let r = m.vertex(v).distance(centre);
                 assert!((r - radius).abs() < 1e-5, "instance {k}: vertex {v} at {r}");
             }
             assert!(!found[k], "instance {k} twice");

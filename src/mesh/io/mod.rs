@@ -228,7 +228,7 @@ mod tests {
         let origin = glb
             .parts()
             .iter()
-            .find(|p| glb.vertex(p.first_vertex).norm() < 1.5)
+            .find(|p| glb.vertex(p.first_vertex).length() < 1.5)
             .unwrap();
         let part = glb
             .filter_triangles(|t| {
