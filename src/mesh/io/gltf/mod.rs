@@ -1,0 +1,344 @@
+//! glTF 2.0 (`.glb` and `.gltf`): every triangle primitive of the default
+//! scene, with the node hierarchy's transforms applied.
+//!
+//! The `gltf` crate parses and validates the JSON; accessors are read here with
+//! every offset checked against the actual buffer, so a truncated or lying file
+//! is an error, not a panic. Buffers are resolved only when a primitive needs
+//! them: embedded (GLB `BIN` chunk or `data:` URI) or external through the
+//! caller's [`ResourceResolver`]. Meshes shared by several nodes are decoded
+//! once.
+
+use std::collections::HashMap;
+
+use gltf::mesh::Mode;
+
+use super::{MAX_TRIANGLES, MAX_VERTICES, ResourceResolver};
+use crate::error::{Error, Format, Result};
+use crate::mesh::{Part, TriMesh};
+
+mod accessor;
+#[cfg(test)]
+mod tests;
+
+/// Deeper node nesting than this is treated as a cycle (validation does not catch them).
+const MAX_DEPTH: usize = 256;
+
+/// A 4x4 matrix, column-major like glTF: `m[column][row]`.
+type Mat4 = [[f64; 4]; 4];
+
+const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+pub(super) fn parse(
+    bytes: &[u8],
+    resources: &dyn ResourceResolver,
+    max_mesh_bytes: u64,
+) -> Result<TriMesh> {
+    check_glb_header(bytes)?;
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
+    validate(&gltf.document)?;
+    let mut loader = Loader {
+        input_len: bytes.len(),
+        max_mesh_bytes,
+        buffers: vec![None; gltf.buffers().len()],
+        blob: gltf.blob.as_deref(),
+        resources,
+        meshes: HashMap::new(),
+        visited: vec![false; gltf.nodes().len()],
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        parts: Vec::new(),
+        placements: Vec::new(),
+        placed_vertices: 0,
+        placed_triangles: 0,
+    };
+    let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        // No scene: every node that is nobody's child is a root.
+        None => {
+            let mut is_child = vec![false; gltf.nodes().len()];
+            for n in gltf.nodes() {
+                for c in n.children() {
+                    is_child[c.index()] = true;
+                }
+            }
+            gltf.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+    for node in roots {
+        loader.visit(&node, &IDENTITY, 0)?;
+    }
+    loader.place_all();
+    TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
+}
+
+/// A GLB's 12-byte header, checked before the `gltf` crate reads it: 1.4.1
+/// subtracts the header from the declared length unchecked, which wraps
+/// (or panics, with overflow checks) for a length below 12.
+fn check_glb_header(bytes: &[u8]) -> Result<()> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let header = |m: String| Err(Error::malformed(Format::Gltf, "GLB header", m));
+    let Some(length) = bytes.get(8..12) else {
+        return header(format!("{} bytes, fewer than the header's 12", bytes.len()));
+    };
+    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]) as usize;
+    if length < 12 || length > bytes.len() {
+        return header(format!(
+            "declares {length} bytes, but the file has {} and the header alone is 12",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
+/// The crate's validation, minus one rule: POSITION accessors without
+/// `min`/`max` are accepted, because many exporters omit them and they are
+/// not needed here. Everything the readers rely on (indices in range, known
+/// component types) is still checked.
+fn validate(document: &gltf::Document) -> Result<()> {
+    use gltf::json::validation::{Checked, Error as Rule, Validate};
+    let root = document.as_json();
+    // gltf-json's own check of POSITION accessors indexes the accessor list
+    // before anything has checked the index: an out-of-range index would
+    // panic there, so it is checked here first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = prim
+                .attributes
+                .get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    format!("mesh {m} primitive {p}"),
+                    format!(
+                        "POSITION refers to accessor {}, but there are {}",
+                        index.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    let mut problems = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, rule| {
+        let path = path();
+        let bounds = path.as_str().ends_with(".min") || path.as_str().ends_with(".max");
+        if !(bounds && matches!(rule, Rule::Missing)) {
+            problems.push(format!("{path}: {rule}"));
+        }
+    });
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::malformed(
+            Format::Gltf,
+            "document",
+            format!("invalid glTF: {}", problems.join("; ")),
+        ))
+    }
+}
+
+/// Local-space triangles of one mesh (all its triangle primitives).
+struct LocalMesh {
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+struct Loader<'a> {
+    /// Bytes of the document (with its GLB chunk).
+    input_len: usize,
+    /// The caller's cap on the placed mesh.
+    max_mesh_bytes: u64,
+    buffers: Vec<Option<Vec<u8>>>,
+    blob: Option<&'a [u8]>,
+    resources: &'a dyn ResourceResolver,
+    meshes: HashMap<usize, LocalMesh>,
+    visited: Vec<bool>,
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    /// One per placed mesh, so that instances of a mesh are known as such.
+    parts: Vec<Part>,
+    /// Each node's world transform and mesh, to be placed once all are counted.
+    placements: Vec<(Mat4, usize)>,
+    placed_vertices: usize,
+    placed_triangles: usize,
+}
+
+impl Loader<'_> {
+    fn visit(&mut self, node: &gltf::Node, parent: &Mat4, depth: usize) -> Result<()> {
+        if depth > MAX_DEPTH {
+            return Err(Error::malformed(
+                Format::Gltf,
+                format!("node {}", node.index()),
+                "the node hierarchy is deeper than 256 levels or has a cycle",
+            ));
+        }
+        // glTF nodes form a forest: a node reached twice has two parents or
+        // sits on a cycle, and following it again could take exponential time.
+        if std::mem::replace(&mut self.visited[node.index()], true) {
+            return Err(Error::malformed(
+                Format::Gltf,
+                format!("node {}", node.index()),
+                "the node is reached twice: it has several parents or the hierarchy has a cycle",
+            ));
+        }
+        let local = node.transform().matrix().map(|c| c.map(f64::from));
+        let world = mul(parent, &local);
+        if let Some(mesh) = node.mesh() {
+            if !self.meshes.contains_key(&mesh.index()) {
+                let decoded = self.decode_mesh(&mesh)?;
+                self.meshes.insert(mesh.index(), decoded);
+            }
+            // Each node places a copy: all are counted before any is made,
+            // so that a small file instancing a mesh many times stops here
+            // having allocated nothing for them.
+            let m = &self.meshes[&mesh.index()];
+            self.placed_vertices += m.positions.len();
+            self.placed_triangles += m.triangles.len();
+            check_size(
+                self.placed_vertices,
+                self.placed_triangles,
+                self.max_mesh_bytes,
+            )?;
+            self.placements.push((world, mesh.index()));
+        }
+        for child in node.children() {
+            self.visit(&child, &world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    /// Copies every placed mesh into world space, after [`check_size`]
+    /// accepted their total.
+    fn place_all(&mut self) {
+        self.positions.reserve_exact(self.placed_vertices);
+        self.triangles.reserve_exact(self.placed_triangles);
+        for (world, mesh) in std::mem::take(&mut self.placements) {
+            let m = &self.meshes[&mesh];
+            let base = self.positions.len() as u32;
+            self.parts.push(Part {
+                first_vertex: base,
+                vertex_count: m.positions.len() as u32,
+                first_triangle: self.triangles.len() as u32,
+                triangle_count: m.triangles.len() as u32,
+                source: mesh as u32,
+            });
+            self.positions
+                .extend(m.positions.iter().map(|&p| transform(&world, p)));
+            self.triangles
+                .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+    }
+
+    fn decode_mesh(&mut self, mesh: &gltf::Mesh) -> Result<LocalMesh> {
+        let mut out = LocalMesh {
+            positions: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for prim in mesh.primitives() {
+            let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                continue; // points and lines have no surface
+            }
+            let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    "primitive has no POSITION",
+                ));
+            };
+            let positions = self.read_positions(&pos_acc, &at)?;
+            let indices: Vec<u32> = match prim.indices() {
+                Some(acc) => self.read_indices(&acc, &at)?,
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(Error::malformed(
+                    Format::Gltf,
+                    at,
+                    format!("index {bad} is past the {} positions", positions.len()),
+                ));
+            }
+            check_size(
+                out.positions.len() + positions.len(),
+                out.triangles.len() + indices.len() / 3,
+                self.max_mesh_bytes,
+            )?;
+            let base = out.positions.len() as u32;
+            out.positions.extend_from_slice(&positions);
+            let tris =
+                assemble(mode, &indices).map_err(|m| Error::malformed(Format::Gltf, &at, m))?;
+            out.triangles
+                .extend(tris.into_iter().map(|t| t.map(|i| i + base)));
+        }
+        Ok(out)
+    }
+}
+
+/// Fails when the placed meshes would pass the loaders' size limits.
+fn check_size(vertices: usize, triangles: usize, max_bytes: u64) -> Result<()> {
+    let bytes = 12 * (vertices as u64 + triangles as u64);
+    if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES || bytes > max_bytes {
+        return Err(Error::MeshTooLarge {
+            limit: MAX_VERTICES as u64,
+            vertices: vertices as u64,
+            triangles: triangles as u64,
+            max_bytes: max_bytes.min(12 * (MAX_VERTICES + MAX_TRIANGLES) as u64),
+        });
+    }
+    Ok(())
+}
+
+/// Triangles from a primitive's index list.
+fn assemble(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, String> {
+    Ok(match mode {
+        Mode::Triangles => {
+            if idx.len() % 3 != 0 {
+                return Err(format!(
+                    "{} triangle indices is not a multiple of 3",
+                    idx.len()
+                ));
+            }
+            idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i + 1], idx[i], idx[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[0], idx[i], idx[i + 1]])
+            .collect(),
+        _ => Vec::new(),
+    })
+}
+
+fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut m = [[0.0; 4]; 4];
+    for (c, col) in m.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[k][r] * b[c][k]).sum();
+        }
+    }
+    m
+}
+
+fn transform(m: &Mat4, p: [f32; 3]) -> [f32; 3] {
+    let [x, y, z] = p.map(f64::from);
+    [0, 1, 2].map(|r| (m[0][r] * x + m[1][r] * y + m[2][r] * z + m[3][r]) as f32)
+}
