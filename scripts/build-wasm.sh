@@ -14,7 +14,7 @@ build_plain() {
   # rayon falls back to the calling thread where threads cannot be spawned,
   # so the plain build runs the same parallel code on one thread.
   RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack build --release --target web --no-pack \
-    --out-dir pkg/plain --out-name fast_reject -- --no-default-features --features parallel
+    --out-dir pkg/plain --out-name fast_reject -- --no-default-features --features parallel,serde
 }
 
 build_threads() {

@@ -23,7 +23,7 @@ step "core tests (unit, errors, the shared scenes, serial = parallel) on wasm32-
 runner="$WASMTIME run --dir $here::$here --dir $(readlink -f "$shared")::/shared --env FAST_REJECT_SHARED=/shared"
 CARGO_TARGET_DIR=target-wasip1 \
   CARGO_TARGET_WASM32_WASIP1_RUNNER="$runner" \
-  cargo test --release --target wasm32-wasip1 --no-default-features --features parallel \
+  cargo test --release --target wasm32-wasip1 --no-default-features --features parallel,serde \
   --lib --test errors --test scenes --test backends
 
 step "native reference result for the wasm-bindgen tests"
@@ -34,17 +34,17 @@ target/release/fast-reject match "$shared/scenes/zoo-bunny/scene.glb" \
 
 step "clippy for the wasm32 binding and its tests"
 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm cargo clippy --release \
-  --target wasm32-unknown-unknown --no-default-features --features parallel \
+  --target wasm32-unknown-unknown --no-default-features --features parallel,serde \
   --lib --test wasm -- -D warnings
 
 step "wasm-bindgen-test in Node"
 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --node -- \
-  --no-default-features --features parallel --test wasm
+  --no-default-features --features parallel,serde --test wasm
 step "wasm-bindgen-test in headless Chromium"
 # The suite is not marked run_in_browser (it runs in Node too); this makes
 # the runner take it to the browser.
 WASM_BINDGEN_USE_BROWSER=1 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
-  --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel --test wasm
+  --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel,serde --test wasm
 
 step "build pkg/ (plain and threaded)"
 bash scripts/build-wasm.sh all
@@ -59,7 +59,7 @@ step "JS API in Node (hostile inputs, scenes held past the memory), threaded bui
 step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-node pkg/bin/fast-reject.js match "$shared/scenes/zoo-bunny/scene.glb" \
+node pkg/bin/fast-reject.js match "$shared/scenes/zoo-bunny/scene.glb" --group-radius 1 \
   --template "$shared/scenes/zoo-bunny/template.glb" --json > "$out/zoo-bunny.json"
 # Exits non-zero unless every instance is found with no false positive.
 python3 "$shared/bench/evaluate.py" "$shared/scenes/zoo-bunny/truth.json" "$out/zoo-bunny.json"

@@ -16,7 +16,8 @@ use crate::error::{Error, Result};
 use crate::exec::Backend;
 
 /// What one layer of one stage did.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct LayerStats {
     /// The stage's descriptor ("volume", "harmonics", ...).
     pub descriptor: &'static str,

@@ -19,7 +19,8 @@ use crate::cascade::Survivor;
 use crate::math::Vec3;
 
 /// One occurrence of the template.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Instance {
     /// World position of the instance's point (where c_T lies).
     pub position: [f64; 3],

@@ -72,8 +72,12 @@ pub mod template;
 pub(crate) mod verify;
 pub(crate) mod voxel;
 // The JavaScript binding, for browsers and Node only (not WASI).
-#[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
+#[cfg(all(target_arch = "wasm32", target_os = "unknown", feature = "serde"))]
 pub mod wasm;
+#[cfg(all(target_arch = "wasm32", target_os = "unknown", not(feature = "serde")))]
+compile_error!(
+    "the JavaScript binding reads options and writes reports with serde: build with --features serde"
+);
 
 pub use cascade::{LayerStats, Observer};
 pub use descriptor::ClutterPolicy;

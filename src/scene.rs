@@ -15,21 +15,41 @@ use crate::voxel::{Grid, GridSpec, Solid, dilate, skin, voxelize};
 use std::sync::OnceLock;
 
 /// How to voxelize a scene.
+///
+/// Like [`crate::MatchOptions`], the one schema of these settings for the
+/// CLI (clap) and JavaScript (serde); only the resolution is a user's
+/// setting there, the rest the embedder's.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(rename_all = "camelCase", deny_unknown_fields, default)
+)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[non_exhaustive]
 pub struct SceneOptions {
-    /// Voxels along the scene's longest side. Default: 512 (the paper's).
+    /// Voxels along the scene's longest side.
+    ///
+    /// Default: 512 (the paper's).
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = SceneOptions::DEFAULT.resolution))]
     pub resolution: u32,
     /// The memory budget in bytes for the scene and every search on it:
     /// what would pass it is refused before it is allocated with
     /// [`crate::Error::OverBudget`], which says what would fit. Default: 2 GiB.
+    /// The CLI takes it in MiB; the wasm binding sizes it from its memory.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = SceneOptions::DEFAULT.memory_budget))]
     pub memory_budget: u64,
     /// Refuse to voxelize a mesh whose triangles, projected on the three
     /// axis planes, cover more voxel faces than this: the voxelizer's
     /// time follows it. Default: 2^27,
     /// about 5 s on one core; the shared scenes need under 10^6 at 512.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = SceneOptions::DEFAULT.max_voxel_work))]
     pub max_voxel_work: f64,
     /// Serial or parallel. Default: parallel.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = Backend::Parallel))]
     pub backend: Backend,
 }
 

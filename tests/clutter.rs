@@ -108,7 +108,7 @@ fn finds_the_free_and_the_sunk_copy_but_not_the_decoy() {
 #[test]
 fn without_hidden_surface_the_sunk_copy_is_lost() {
     let mut options = MatchOptions::DEFAULT;
-    options.clutter.hidden_surface = 0.0;
+    options.hidden_surface = 0.0;
     let (report, truth) = run(&options);
     let (hits, _) = found(&report, &truth);
     assert_eq!(hits, [true, false, false], "{report:?}");

@@ -26,6 +26,11 @@ fn number(value: &JsValue, key: &str) -> f64 {
 }
 
 /// The message of a JS error returned by the binding.
+/// A JS value from JSON text.
+fn js(json: &str) -> JsValue {
+    js_sys::JSON::parse(json).unwrap()
+}
+
 fn message(error: JsError) -> String {
     let value: JsValue = error.into();
     assert!(
@@ -39,8 +44,8 @@ fn message(error: JsError) -> String {
 fn zoo_bunny_matches_the_native_run() {
     let native: serde_json::Value = serde_json::from_str(NATIVE_REPORT).unwrap();
     let expected = native["instances"].as_array().unwrap();
-    let mut scene = SceneHandle::from_bytes(SCENE, None, None).unwrap();
-    let template = TemplateHandle::from_bytes(TEMPLATE, Some("glb".into())).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED).unwrap();
+    let template = TemplateHandle::from_bytes(TEMPLATE, js(r#"{"format": "glb"}"#)).unwrap();
     let layers = Array::new();
     let record = {
         let layers = layers.clone();
@@ -95,8 +100,8 @@ fn zoo_bunny_matches_the_native_run() {
 
 #[wasm_bindgen_test]
 fn progress_callback_cancels_with_false_or_a_throw() {
-    let mut scene = SceneHandle::from_bytes(SCENE, None, Some(128.0)).unwrap();
-    let template = TemplateHandle::from_bytes(TEMPLATE, None).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let stop = Function::new_no_args("return false;");
     let error = message(
         scene
@@ -121,33 +126,45 @@ fn progress_callback_cancels_with_false_or_a_throw() {
 #[wasm_bindgen_test]
 fn bad_input_is_an_error_and_the_module_stays_usable() {
     let garbage = [0xde, 0xad, 0xbe, 0xef, 1, 2, 3];
-    let e = message(SceneHandle::from_bytes(&garbage, None, None).unwrap_err());
+    let e = message(SceneHandle::from_bytes(&garbage, JsValue::UNDEFINED).unwrap_err());
     assert!(e.contains("unrecognized mesh data"), "{e}");
-    let e = message(SceneHandle::from_bytes(&[], None, None).unwrap_err());
+    let e = message(SceneHandle::from_bytes(&[], JsValue::UNDEFINED).unwrap_err());
     assert!(e.contains("empty"), "{e}");
-    let e = message(SceneHandle::from_bytes(b"glTF\x02\0\0\0", None, None).unwrap_err());
+    let e = message(SceneHandle::from_bytes(b"glTF\x02\0\0\0", JsValue::UNDEFINED).unwrap_err());
     assert!(e.contains("glTF"), "{e}");
-    let e = message(SceneHandle::from_bytes(SCENE, Some("dwg".into()), None).unwrap_err());
+    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"format": "dwg"}"#)).unwrap_err());
     assert!(e.contains("format"), "{e}");
     let e = message(TemplateHandle::from_selection(f64::NAN, 0.0, 0.0, 1.0).unwrap_err());
     assert!(e.contains("finite"), "{e}");
     // A grid beyond wasm memory is refused before anything is allocated.
-    let e = message(SceneHandle::from_bytes(SCENE, None, Some(16384.0)).unwrap_err());
+    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 16384}"#)).unwrap_err());
     assert!(e.contains("lower the resolution"), "{e}");
-    let e = message(SceneHandle::from_bytes(SCENE, None, Some(f64::NAN)).unwrap_err());
-    assert!(e.contains("resolution"), "{e}");
+    let nan = Object::new();
+    Reflect::set(&nan, &"resolution".into(), &f64::NAN.into()).unwrap();
+    let e = message(SceneHandle::from_bytes(SCENE, nan.into()).unwrap_err());
+    assert!(e.contains("resolution") && e.contains("finite"), "{e}");
+    // Scene and template options are checked as strictly as match options.
+    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"resolutoin": 64}"#)).unwrap_err());
+    assert!(e.contains("unknown scene option 'resolutoin'"), "{e}");
+    let e = message(TemplateHandle::from_bytes(TEMPLATE, js(r#"{"resolution": 64}"#)).unwrap_err());
+    assert!(e.contains("unknown template option 'resolution'"), "{e}");
 
-    let mut scene = SceneHandle::from_bytes(SCENE, None, Some(128.0)).unwrap();
-    let template = TemplateHandle::from_bytes(TEMPLATE, None).unwrap();
-    let options = |json: &str| -> JsValue { js_sys::JSON::parse(json).unwrap() };
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
+    let options = js;
     for (bad, expect) in [
         (r#"{"descriptor": "sift"}"#, "descriptor"),
         (r#"{"resolutoin": 256}"#, "unknown match option"),
-        (r#"{"layers": 0.5}"#, "layers"),
+        (
+            r#"{"layers": 0.5}"#,
+            "invalid option layers: invalid type: floating point `0.5`, expected a whole number",
+        ),
+        (r#"{"groupRadius": -1}"#, "group radius"),
         (r#"{"verifyThreshold": 2}"#, "verify threshold"),
         (r#"{"volumeThreshold": "high"}"#, "expected a number"),
         (r#"{"resolution": 16384}"#, "lower the resolution"),
         ("42", "must be an object"),
+        ("[1]", "must be an object"),
     ] {
         let e = message(scene.run_match(&template, options(bad), None).unwrap_err());
         assert!(e.contains(expect), "{bad}: {e}");
@@ -161,5 +178,25 @@ fn bad_input_is_an_error_and_the_module_stays_usable() {
     let report = scene
         .run_match(&template, Object::new().into(), None)
         .unwrap();
+    assert!(get(&report, "instances").is_instance_of::<Array>());
+}
+
+#[wasm_bindgen_test]
+fn the_option_defaults_are_accepted_as_options() {
+    let defaults = fast_reject::wasm::option_defaults().unwrap();
+    let scene_defaults = get(&defaults, "scene");
+    let match_defaults = get(&defaults, "match");
+    assert_eq!(get(&scene_defaults, "resolution").as_f64(), Some(512.0));
+    assert_eq!(
+        get(&match_defaults, "descriptor").as_string().as_deref(),
+        Some("volume+harmonics")
+    );
+    assert_eq!(get(&match_defaults, "groupRadius").as_f64(), Some(1.0));
+    // Set at a lower resolution (the defaults' 512 is slow here), and the
+    // match defaults as they are: every key they hold is a valid option.
+    Reflect::set(&scene_defaults, &"resolution".into(), &128.into()).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, scene_defaults).unwrap();
+    let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
+    let report = scene.run_match(&template, match_defaults, None).unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }

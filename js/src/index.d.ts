@@ -33,39 +33,57 @@ export type MeshFormat = 'glb' | 'gltf' | 'obj' | 'ply' | 'stl';
 /** Bytes of a mesh file. */
 export type MeshBytes = Uint8Array | ArrayBuffer | ArrayBufferView;
 
+/** A descriptor chain (the core's `DescriptorKind`). */
+export type DescriptorName = 'volume+harmonics' | 'volume' | 'harmonics' | 'curvature';
+
+/**
+ * Scene options. Like MatchOptions, the core's own schema (a test holds this
+ * file to it): an unknown key is an error, not ignored.
+ */
 export interface SceneOptions {
   /** The format; recognized from the content when absent. */
   format?: MeshFormat;
-  /** Voxels along the scene's longest side (8..=16384, default 512). */
+  /** Voxels along the scene's longest side, 8..=16384 (default 512). */
   resolution?: number;
 }
 
+/** Match options: the core's `MatchOptions`, camelCased; an unknown key is an error. */
 export interface MatchOptions {
-  /** 'volume+harmonics' (default), 'volume', 'harmonics' or 'curvature' (on the mesh, no voxels). */
-  descriptor?: string;
+  /** 'curvature' works on the mesh, with no voxels (default 'volume+harmonics'). */
+  descriptor?: DescriptorName;
   /** Voxelize the scene again at this resolution (kept for later calls). */
   resolution?: number;
   /** Number of radii k (default 6). */
   layers?: number;
-  /** Volume stage threshold (default 0.12). */
+  /** Volume stage threshold: the sum of the balls' solid-fraction differences (default 0.12). */
   volumeThreshold?: number;
-  /** Harmonics stage threshold (default 0.8). */
+  /** Harmonics stage threshold, in voxels of equivalent deviation (default 0.8). */
   harmonicsThreshold?: number;
   /** Curvature threshold on the r_k^2-scaled squared differences (default 2.5). */
   curvatureThreshold?: number;
-  /** Curvature: 0 (default) makes every vertex a candidate; a positive value is a grid cell's side (a share of r_1) for a faster first pass over one vertex per cell, which can miss an occurrence. */
+  /** Curvature: 0 makes every vertex a candidate; a positive value is a grid cell's side (a share of r_1) for a faster first pass over one vertex per cell, which can miss an occurrence (default 0). */
   curvatureSpacing?: number;
-  /** Least share of the template's surface that must land on the scene (default 0.85). */
-  verifyThreshold?: number;
-  /** Largest share of a model template's surface other material may hide (default 0.3). */
-  hiddenSurface?: number;
   /** Survivors within this share of r_k of a better one join its instance (default 1). */
   groupRadius?: number;
+  /** Least share of the template's surface that must lie on the scene's surface, 0..1 (default 0.85). */
+  verifyThreshold?: number;
+  /** Largest share of a model template's surface other material may hide, 0..1 (default 0.3). */
+  hiddenSurface?: number;
 }
+
+/** Every option's default, as the core defines them. */
+export interface OptionDefaults {
+  scene: Required<Omit<SceneOptions, 'format'>>;
+  match: Required<Omit<MatchOptions, 'resolution'>>;
+}
+
+/** The defaults of every scene and match option (after init()). */
+export function optionDefaults(): OptionDefaults;
 
 /** One cascade layer, as reported to the progress callback and in `stages`. */
 export interface LayerStats {
-  descriptor: string;
+  /** The stage: one descriptor of the chain ('curvature-sample' is the sampled first pass of curvatureSpacing). */
+  descriptor: 'volume' | 'harmonics' | 'curvature' | 'curvature-sample';
   layer: number;
   radius: number;
   candidates: number;
@@ -102,6 +120,11 @@ export interface MatchReport {
   threads: number;
 }
 
+export interface TemplateOptions {
+  /** The format; recognized from the content when absent. */
+  format?: MeshFormat;
+}
+
 /** Called after every cascade layer; return `false` (or throw) to cancel. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
@@ -125,7 +148,7 @@ export class Scene extends Handle {
 export class Template extends Handle {
   private constructor();
   /** A separate model. */
-  static fromBytes(bytes: MeshBytes, options?: { format?: MeshFormat }): Template;
+  static fromBytes(bytes: MeshBytes, options?: TemplateOptions): Template;
   /** The part of the scene inside a sphere (scene coordinates). */
   static fromSelection(center: ArrayLike<number>, radius: number): Template;
   readonly isSelection: boolean;

@@ -135,18 +135,6 @@ function asBytes(bytes, what) {
   throw new TypeError(`fast-reject: the ${what} must be a Uint8Array or an ArrayBuffer, got ${typeof bytes}`);
 }
 
-function optionalString(value, name) {
-  if (value === undefined || value === null) return undefined;
-  if (typeof value !== 'string') throw new TypeError(`fast-reject: ${name} must be a string`);
-  return value;
-}
-
-function optionalNumber(value, name) {
-  if (value === undefined || value === null) return undefined;
-  if (typeof value !== 'number') throw new TypeError(`fast-reject: ${name} must be a number`);
-  return value;
-}
-
 class Handle {
   #inner;
   constructor(inner) {
@@ -185,14 +173,13 @@ class Handle {
 
 /** A voxelized scene, searched any number of times. */
 export class Scene extends Handle {
-  static fromBytes(bytes, { format, resolution } = {}) {
+  /** Options are checked in the module, against the core's schema. */
+  static fromBytes(bytes, options) {
     const data = asBytes(bytes, 'scene');
-    const fmt = optionalString(format, 'format');
-    const res = optionalNumber(resolution, 'resolution');
     return new Scene(
       call((glue) => {
         checkFits(glue, data, 'scene');
-        return glue.Scene.fromBytes(data, fmt, res);
+        return glue.Scene.fromBytes(data, options);
       }),
     );
   }
@@ -221,13 +208,12 @@ export class Scene extends Handle {
 
 /** What to look for: a model, or a part of the scene inside a sphere. */
 export class Template extends Handle {
-  static fromBytes(bytes, { format } = {}) {
+  static fromBytes(bytes, options) {
     const data = asBytes(bytes, 'template');
-    const fmt = optionalString(format, 'format');
     return new Template(
       call((glue) => {
         checkFits(glue, data, 'template');
-        return glue.Template.fromBytes(data, fmt);
+        return glue.Template.fromBytes(data, options);
       }),
     );
   }
@@ -241,6 +227,11 @@ export class Template extends Handle {
   get isSelection() {
     return this.inner.isSelection;
   }
+}
+
+/** Every option's default, `{ scene, match }`: the core's schema, in JavaScript's names. */
+export function optionDefaults() {
+  return call((glue) => glue.optionDefaults());
 }
 
 /** Linear memory the module holds now; it never shrinks, so after a search this is the peak. */

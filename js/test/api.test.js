@@ -5,7 +5,7 @@ import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import { test } from 'node:test';
 
-import { Scene, Template, init, memoryBytes, threadsUsed } from '../../pkg/index.js';
+import { Scene, Template, init, memoryBytes, optionDefaults, threadsUsed } from '../../pkg/index.js';
 
 const shared = new URL('../../../shared/scenes/', import.meta.url);
 const sceneBytes = await readFile(new URL('zoo-bunny/scene.glb', shared));
@@ -23,6 +23,19 @@ test('Node gets the plain build on one thread', async () => {
   assert.ok(info.memoryLimitBytes >= 2 ** 30);
 });
 
+test('the option defaults are the core schema and are valid options', async () => {
+  await init();
+  const defaults = optionDefaults();
+  assert.deepEqual(Object.keys(defaults.scene), ['resolution']);
+  assert.equal(defaults.match.descriptor, 'volume+harmonics');
+  assert.equal(defaults.match.groupRadius, 1);
+  const scene = Scene.fromBytes(sceneBytes, { ...defaults.scene, resolution: 128 });
+  const template = Template.fromBytes(templateBytes);
+  assert.ok(Array.isArray(scene.match(template, defaults.match).instances));
+  template.free();
+  scene.free();
+});
+
 test('bad input is an Error and the module stays usable', async () => {
   await init();
   const cases = [
@@ -37,6 +50,10 @@ test('bad input is an Error and the module stays usable', async () => {
     [() => Scene.fromBytes(sceneBytes, { resolution: 16384 }), /lower the resolution/],
     [() => Scene.fromBytes(sceneBytes, { resolution: 1e12 }), /resolution/],
     [() => Scene.fromBytes(sceneBytes, { format: 'dwg' }), /format/],
+    // Scene and template options are as strict as match options.
+    [() => Scene.fromBytes(sceneBytes, { resolutoin: 64 }), /unknown scene option 'resolutoin'; the options are resolution, format/],
+    [() => Scene.fromBytes(sceneBytes, { resolution: 'high' }), /invalid option resolution/],
+    [() => Template.fromBytes(templateBytes, { resolution: 64 }), /unknown template option 'resolution'/],
   ];
   for (const [call, message] of cases) {
     assert.throws(call, (error) => error instanceof Error && message.test(error.message), String(call));

@@ -13,7 +13,7 @@
 //!
 //! The same holds for the placement test: template surface that lands inside
 //! the scene's solid is hidden by other material and counts neither way, up
-//! to [`ClutterPolicy::hidden_surface`] of it (a figure sunk into the ground
+//! to [`crate::MatchOptions::hidden_surface`] of it (a figure sunk into the ground
 //! hides its feet; a template pushed into a solid hides most of itself).
 //!
 //! Three limits keep the descriptors from excusing everything:
@@ -47,24 +47,18 @@ pub struct ClutterPolicy {
     /// A sphere whose mean occupancy (its degree-0 energy) exceeds the
     /// template's by more than this is cluttered.
     pub sphere_tolerance: f64,
-    /// Verification: the largest share of a model template's surface that
-    /// may land inside the scene's solid, hidden by other material.
-    pub hidden_surface: f64,
 }
 
 impl ClutterPolicy {
     /// The defaults: layers out to r_k / 3 and at least 16 voxels always
     /// count; 3% of a ball or 1% of a sphere beyond the template's marks
     /// clutter (above the discretization noise of clean matches at those
-    /// radii, measured on the shared scenes); up to 30% of the surface may
-    /// be hidden (true occurrences sunk into a slab hide 10-27%, placements
-    /// of a part on the wrong part of a whole 20-50%).
+    /// radii, measured on the shared scenes).
     pub const DEFAULT: ClutterPolicy = ClutterPolicy {
         clean_fraction: 1.0 / 3.0,
         clean_voxels: 16.0,
         volume_tolerance: 0.03,
         sphere_tolerance: 0.01,
-        hidden_surface: 0.3,
     };
 
     /// Every layer always counts (the plain cascade of the paper).
@@ -73,7 +67,6 @@ impl ClutterPolicy {
         clean_voxels: f64::INFINITY,
         volume_tolerance: f64::INFINITY,
         sphere_tolerance: f64::INFINITY,
-        hidden_surface: Self::DISCRETIZATION_HIDDEN,
     };
 
     /// The share of the surface a clean, well placed template may still
@@ -81,17 +74,6 @@ impl ClutterPolicy {
     /// or thin part is missed by a sample (measured: at most 5% on the
     /// shared selection scenes).
     pub const DISCRETIZATION_HIDDEN: f64 = 0.1;
-
-    /// The hidden share allowed for a template; a selection was cut from the
-    /// scene with everything its sphere held, surroundings included, so
-    /// only discretization can hide its surface.
-    pub fn hidden_surface_for(&self, selection: bool) -> f64 {
-        if selection {
-            self.hidden_surface.min(Self::DISCRETIZATION_HIDDEN)
-        } else {
-            self.hidden_surface
-        }
-    }
 
     /// The share of a stage's budget that `counted` of `layers` layers may
     /// use when the rest are excused, for errors that fall as 1/R with the
@@ -208,15 +190,5 @@ mod tests {
         assert!((shares[5] - 1.0).abs() < 1e-12);
         // H(2) / H(6) = 1.5 / 2.45.
         assert!((shares[1] - 1.5 / 2.45).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_selection_may_hide_only_discretization() {
-        let p = ClutterPolicy::DEFAULT;
-        assert_eq!(p.hidden_surface_for(false), p.hidden_surface);
-        assert_eq!(
-            p.hidden_surface_for(true),
-            ClutterPolicy::DISCRETIZATION_HIDDEN
-        );
     }
 }

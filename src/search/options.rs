@@ -1,4 +1,10 @@
 //! How to search: the descriptor chain, its thresholds and the backend.
+//!
+//! [`MatchOptions`] is the one schema of the search's settings: the CLI
+//! flattens it into flags (clap, with the `cli` feature), the JavaScript
+//! binding reads it from an object (serde, camelCase, unknown keys refused,
+//! with the `serde` feature), and a test holds the npm package's
+//! `index.d.ts` to it. A new option is a new field here and nowhere else.
 
 use std::fmt;
 use std::str::FromStr;
@@ -9,9 +15,15 @@ use crate::exec::Backend;
 
 /// Which descriptors the cascade runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "cli", value(rename_all = "lower"))]
 pub enum DescriptorKind {
     /// The volume prefilter, then the spherical harmonics (the paper's SHD).
     #[default]
+    #[cfg_attr(feature = "serde", serde(rename = "volume+harmonics"))]
+    #[cfg_attr(feature = "cli", value(name = "volume+harmonics"))]
     VolumeHarmonics,
     /// The volume descriptor alone.
     Volume,
@@ -23,6 +35,14 @@ pub enum DescriptorKind {
 }
 
 impl DescriptorKind {
+    /// Every descriptor chain, the default first.
+    pub const ALL: [DescriptorKind; 4] = [
+        DescriptorKind::VolumeHarmonics,
+        DescriptorKind::Volume,
+        DescriptorKind::Harmonics,
+        DescriptorKind::Curvature,
+    ];
+
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
@@ -43,58 +63,103 @@ impl fmt::Display for DescriptorKind {
 impl FromStr for DescriptorKind {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "volume+harmonics" => Ok(DescriptorKind::VolumeHarmonics),
-            "volume" => Ok(DescriptorKind::Volume),
-            "harmonics" => Ok(DescriptorKind::Harmonics),
-            "curvature" => Ok(DescriptorKind::Curvature),
-            _ => Err(Error::invalid_option(
-                "descriptor",
-                format!("'{s}' is not one of volume+harmonics, volume, harmonics, curvature"),
-            )),
-        }
+        DescriptorKind::ALL
+            .into_iter()
+            .find(|kind| kind.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = DescriptorKind::ALL.iter().map(|k| k.name()).collect();
+                Error::invalid_option(
+                    "descriptor",
+                    format!("'{s}' is not one of {}", names.join(", ")),
+                )
+            })
     }
 }
 
 /// How to search.
+///
+/// Field docs are the CLI's help as well: their first line is what `--help`
+/// prints.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(rename_all = "camelCase", deny_unknown_fields, default)
+)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[non_exhaustive]
 pub struct MatchOptions {
-    /// The descriptor chain. Default: volume+harmonics.
+    /// The descriptor chain.
+    ///
+    /// Default: volume+harmonics.
+    #[cfg_attr(feature = "cli", arg(long, value_enum, long_help = None, default_value_t = MatchOptions::DEFAULT.descriptor))]
     pub descriptor: DescriptorKind,
-    /// Number of radii k. Default: 6 (the paper's).
+    /// Number of radii k.
+    ///
+    /// Default: 6 (the paper's).
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.layers))]
     pub layers: usize,
-    /// Volume stage: bound on the sum of fraction differences. Default: 0.12
-    /// (the paper's epsilon').
+    /// Volume stage threshold: the sum of the balls' solid-fraction
+    /// differences.
+    ///
+    /// Default: 0.12 (the paper's epsilon').
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.volume_threshold))]
     pub volume_threshold: f64,
-    /// Harmonics stage: bound on the normalized distance, in voxels of
-    /// equivalent deviation (see [`crate::descriptor::harmonics`]).
+    /// Harmonics stage threshold, in voxels of equivalent deviation.
+    ///
+    /// The normalized distance of [`crate::descriptor::harmonics`].
     /// Default: 0.8.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.harmonics_threshold))]
     pub harmonics_threshold: f64,
-    /// Curvature stage: bound on the sum of squared differences of the
-    /// Gaussian curvatures scaled by r_k^2 (see
-    /// [`crate::descriptor::curvature`]). Default: 2.5.
+    /// Curvature stage threshold: the sum of squared differences of the
+    /// Gaussian curvatures scaled by r_k^2.
+    ///
+    /// See [`crate::descriptor::curvature`]. Default: 2.5.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.curvature_threshold))]
     pub curvature_threshold: f64,
-    /// Curvature stage: 0 (the default) makes every vertex a candidate, the
-    /// paper's schema on the whole mesh. A positive value is the side of
-    /// grid cells, as a fraction of r_1: one vertex per cell is a candidate
-    /// of a first pass with a looser threshold, and every vertex near its
-    /// survivors one of the final pass. At 0.5 this is 1.5-20 times faster on
-    /// the shared scenes, but what it finds depends on where the cells fall:
-    /// turning remeshed-cow can lose an occurrence (see the README).
+    /// Curvature: 0 makes every vertex a candidate; a positive value runs a
+    /// first pass on one vertex per grid cell of this side (a share of r_1),
+    /// several times faster, but it can miss an occurrence.
+    ///
+    /// 0 (the default) is the paper's schema on the whole mesh. Otherwise one
+    /// vertex per cell is a candidate of a first pass with a looser
+    /// threshold, and every vertex near its survivors one of the final pass.
+    /// At 0.5 this is 1.5-20 times faster on the shared scenes, but what it
+    /// finds depends on where the cells fall: turning remeshed-cow can lose
+    /// an occurrence (docs/BENCHMARKS.md).
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.curvature_spacing))]
     pub curvature_spacing: f64,
-    /// Survivors within this fraction of r_k of a better one join its
-    /// instance: an occurrence claims the ball its descriptor describes.
-    /// Default: 1.0.
+    /// Survivors within this share of r_k of a better one join its instance.
+    ///
+    /// An occurrence claims the ball its descriptor describes. Default: 1.0.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.group_radius))]
     pub group_radius: f64,
-    /// Verification: the least share of the template's surface that must
-    /// land on the scene's surface when the template is placed at a point
-    /// (0..1), after the pose is refined. Default: 0.85.
+    /// Verification: the least share of the template's surface that must lie
+    /// on the scene's surface (0..1).
+    ///
+    /// Measured with the template placed at the point and its pose refined.
+    /// Default: 0.85.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.verify_threshold))]
     pub verify_threshold: f64,
+    /// Verification: the largest share of a model template's surface that
+    /// other material may hide (0..1).
+    ///
+    /// Surface that lands inside the scene's solid; a selection is held to
+    /// discretization's share ([`ClutterPolicy::DISCRETIZATION_HIDDEN`]).
+    /// Default: 0.3: true occurrences sunk into a slab hide 10-27%,
+    /// placements of a part on the wrong part of a whole 20-50%.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.hidden_surface))]
+    pub hidden_surface: f64,
     /// When extra material (other objects) excuses the outer layers; see
     /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
+    /// The library's setting, for experiments; not on the CLI or in JavaScript.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = ClutterPolicy::DEFAULT))]
     pub clutter: ClutterPolicy,
-    /// Serial or parallel. Default: parallel.
+    /// Serial or parallel. Default: parallel. The CLI sets it from
+    /// `--threads`; JavaScript from the build it loaded.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = Backend::Parallel))]
     pub backend: Backend,
 }
 
@@ -109,6 +174,7 @@ impl MatchOptions {
         curvature_spacing: 0.0,
         group_radius: 1.0,
         verify_threshold: 0.85,
+        hidden_surface: 0.3,
         clutter: ClutterPolicy::DEFAULT,
         backend: Backend::Parallel,
     };
@@ -139,7 +205,7 @@ impl MatchOptions {
         }
         for (name, share) in [
             ("verify threshold", self.verify_threshold),
-            ("hidden surface", self.clutter.hidden_surface),
+            ("hidden surface", self.hidden_surface),
         ] {
             if !(0.0..=1.0).contains(&share) {
                 return Err(Error::invalid_option(
@@ -158,8 +224,52 @@ impl MatchOptions {
     }
 }
 
+impl MatchOptions {
+    /// The hidden share allowed for a template: a selection was cut from the
+    /// scene with everything its sphere held, surroundings included, so
+    /// only discretization can hide its surface.
+    pub(crate) fn hidden_surface_for(&self, selection: bool) -> f64 {
+        if selection {
+            self.hidden_surface
+                .min(ClutterPolicy::DISCRETIZATION_HIDDEN)
+        } else {
+            self.hidden_surface
+        }
+    }
+}
+
 impl Default for MatchOptions {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_selection_may_hide_only_discretization() {
+        let options = MatchOptions::DEFAULT;
+        assert_eq!(options.hidden_surface_for(false), options.hidden_surface);
+        assert_eq!(
+            options.hidden_surface_for(true),
+            ClutterPolicy::DISCRETIZATION_HIDDEN
+        );
+    }
+
+    #[test]
+    fn every_descriptor_name_parses_back() {
+        for kind in DescriptorKind::ALL {
+            assert_eq!(kind.name().parse::<DescriptorKind>().unwrap(), kind);
+        }
+        let error = "curvatur"
+            .parse::<DescriptorKind>()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("volume+harmonics, volume, harmonics, curvature"),
+            "{error}"
+        );
     }
 }

@@ -6,7 +6,8 @@ use crate::instances::Instance;
 use crate::math::Vec3;
 
 /// The template as the report shows it.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct TemplateInfo {
     /// c_T: template-model coordinates, or world for a selection.
     pub center: [f64; 3],
@@ -24,7 +25,8 @@ impl TemplateInfo {
 }
 
 /// The welded surface as the report shows it (curvature searches).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct SurfaceInfo {
     /// Welded vertices: the candidate points.
     pub vertices: usize,
@@ -33,7 +35,8 @@ pub struct SurfaceInfo {
 }
 
 /// The grid as the report shows it.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct GridInfo {
     /// Voxels along the longest side.
     pub resolution: u32,
@@ -85,6 +88,7 @@ impl Timings {
     }
 }
 
+#[cfg(feature = "serde")]
 impl serde::Serialize for Timings {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeStruct;
@@ -101,7 +105,8 @@ impl serde::Serialize for Timings {
 }
 
 /// Everything a search found, in the shape of the CLI's JSON.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct MatchReport {
     /// The template's centre and outer radius.
     pub template: TemplateInfo,
@@ -114,6 +119,6 @@ pub struct MatchReport {
     /// The welded surface (curvature; None for the voxel descriptors).
     pub surface: Option<SurfaceInfo>,
     /// Stage timings.
-    #[serde(rename = "timings_ms")]
+    #[cfg_attr(feature = "serde", serde(rename = "timings_ms"))]
     pub timings: Timings,
 }

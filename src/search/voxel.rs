@@ -111,9 +111,7 @@ pub(super) fn search_voxels(
         tvoxel,
         template.center_offset(scene),
         &radii_voxels,
-        options
-            .clutter
-            .hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
+        options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
         backend,
     );
     let verified: Vec<Verified> = backend

@@ -23,14 +23,14 @@ use wasm_bindgen::prelude::*;
 
 use crate::cascade::LayerStats;
 use crate::clock::{now_ms, set_clock};
-use crate::error::Error;
+use crate::error::{Error, Format};
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_within};
-use crate::scene::Scene;
+use crate::scene::{Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
 
-use options::{memory_limit_bytes, scene_options};
+use options::memory_limit_bytes;
 
 /// Re-exported so that JavaScript can call `initThreadPool(n)` on the
 /// threaded build.
@@ -127,6 +127,13 @@ pub fn memory_limit() -> f64 {
 
 /// Bytes the heap may still grow by: the module's limit less what is live.
 /// The JS wrapper refuses input bytes that could not be copied in and
+/// Every option's default, `{ scene, match }`, in the names JavaScript
+/// uses: the one list the CLI's flags and the viewer's fields come from.
+#[wasm_bindgen(js_name = optionDefaults)]
+pub fn option_defaults() -> Result<JsValue, JsError> {
+    options::defaults()
+}
+
 /// parsed within it, since a failed allocation would trap the module.
 #[wasm_bindgen(js_name = freeBytes)]
 pub fn free_bytes() -> f64 {
@@ -140,10 +147,9 @@ fn js_error(error: Error) -> JsError {
 
 /// Parses a mesh in the named format (or the one its content shows), with
 /// the time it took for the report's `load`.
-fn parse_mesh(bytes: &[u8], format: Option<String>) -> Result<(TriMesh, f64), JsError> {
+fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), JsError> {
     ensure_started();
     let start = now_ms();
-    let format = options::parse_format(format.as_deref())?;
     let mesh = load_within(bytes, format, &NoResources, options::memory_budget(0) / 2)
         .map_err(js_error)?;
     Ok((mesh, now_ms() - start))
@@ -159,18 +165,18 @@ pub struct SceneHandle {
 
 #[wasm_bindgen(js_class = Scene)]
 impl SceneHandle {
-    /// Parses `bytes` (glb/gltf, obj, ply or stl; `format` names it, or it
-    /// is recognized from the content) and voxelizes it at `resolution`
-    /// voxels along the longest side (default 512).
+    /// Parses `bytes` (glb/gltf, obj, ply or stl) and prepares it for
+    /// searching. `options` is a plain object (see
+    /// `options::SceneSettings`): `format` names the format, or it is
+    /// recognized from the content, and the core's scene options.
     #[wasm_bindgen(js_name = fromBytes)]
-    pub fn from_bytes(
-        bytes: &[u8],
-        format: Option<String>,
-        resolution: Option<f64>,
-    ) -> Result<SceneHandle, JsError> {
-        let (mesh, load_ms) = parse_mesh(bytes, format)?;
+    pub fn from_bytes(bytes: &[u8], options: JsValue) -> Result<SceneHandle, JsError> {
+        let settings = options::SceneSettings::from_js(&options)?;
+        let (mesh, load_ms) = parse_mesh(bytes, settings.format)?;
         // After parsing: the budget is what is free with the mesh in memory.
-        let options = scene_options(resolution)?;
+        let options = settings
+            .options
+            .with_memory_budget(options::memory_budget(0));
         let scene = Scene::new(mesh, &options).map_err(js_error)?;
         Ok(SceneHandle { scene, load_ms })
     }
@@ -218,7 +224,9 @@ impl SceneHandle {
         {
             // On failure (a grid too large) the scene at the old resolution
             // stays, so the handle remains usable.
-            let options = scene_options(Some(resolution as f64))?;
+            let options = SceneOptions::DEFAULT
+                .with_resolution(resolution)
+                .with_memory_budget(options::memory_budget(0));
             self.scene = Scene::new(self.scene.mesh().clone(), &options).map_err(js_error)?;
         }
         // Whatever else the page holds (other scenes, templates) is live
@@ -263,9 +271,11 @@ pub struct TemplateHandle {
 
 #[wasm_bindgen(js_class = Template)]
 impl TemplateHandle {
-    /// A separate model from bytes (same formats as a scene).
+    /// A separate model from bytes (same formats as a scene); `options` may
+    /// name the `format`.
     #[wasm_bindgen(js_name = fromBytes)]
-    pub fn from_bytes(bytes: &[u8], format: Option<String>) -> Result<TemplateHandle, JsError> {
+    pub fn from_bytes(bytes: &[u8], options: JsValue) -> Result<TemplateHandle, JsError> {
+        let format = options::template_format(&options)?;
         let (mesh, load_ms) = parse_mesh(bytes, format)?;
         Ok(TemplateHandle {
             source: TemplateSource::Model(mesh),

@@ -1,29 +1,27 @@
-//! Options from JavaScript values, checked before they reach the core: a
-//! JS number can be NaN, fractional or huge, and a misspelt key would
-//! otherwise be ignored silently.
+//! Options from JavaScript objects, read through the core's own schema:
+//! [`MatchOptions`] and [`SceneOptions`] deserialize themselves (serde,
+//! camelCase), so a key the core does not know is refused here with the
+//! list of those it does, and a new option needs no change in this file.
+//!
+//! A JS value is checked before serde sees it: a number may be NaN or
+//! fractional, and serde's own messages name neither the key nor the
+//! JavaScript type.
 
-use std::str::FromStr;
-
-use js_sys::{Object, Reflect};
+use js_sys::{Array, Object, Reflect};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use serde_json::{Map, Number, Value};
 use wasm_bindgen::prelude::*;
 
 use crate::error::Format;
 use crate::scene::SceneOptions;
-use crate::search::{DescriptorKind, MatchOptions};
+use crate::search::MatchOptions;
 
-/// The option names `match` accepts (the CLI's flags, in camelCase).
-const MATCH_KEYS: [&str; 10] = [
-    "descriptor",
-    "resolution",
-    "layers",
-    "volumeThreshold",
-    "curvatureThreshold",
-    "curvatureSpacing",
-    "harmonicsThreshold",
-    "verifyThreshold",
-    "hiddenSurface",
-    "groupRadius",
-];
+/// Keys the binding reads besides a scene's [`SceneOptions`]: the format.
+pub const SCENE_EXTRA_KEYS: [&str; 1] = ["format"];
+/// Keys the binding reads besides [`MatchOptions`]: a resolution to
+/// voxelize the scene at again, kept for later calls.
+pub const MATCH_EXTRA_KEYS: [&str; 1] = ["resolution"];
 
 /// Bytes the module's linear memory may grow to: the threaded build is
 /// linked with `--max-memory=1073741824` (scripts/build-wasm.sh); the plain
@@ -49,28 +47,35 @@ pub fn memory_budget(counted: u64) -> u64 {
     (limit / 2).min(free.saturating_add(counted))
 }
 
-/// Scene options for a resolution given from JavaScript (default 512).
-pub fn scene_options(resolution: Option<f64>) -> Result<SceneOptions, JsError> {
-    let mut options = SceneOptions::DEFAULT.with_memory_budget(memory_budget(0));
-    if let Some(value) = resolution {
-        options = options.with_resolution(whole_number("resolution", value, 8, 16384)?);
-    }
-    Ok(options)
+/// `Scene.fromBytes` options: the format and the core's scene options.
+pub struct SceneSettings {
+    pub format: Option<Format>,
+    pub options: SceneOptions,
 }
 
-/// A format name (an extension: glb, gltf, obj, ply, stl), or none to
-/// recognize the content.
-pub fn parse_format(name: Option<&str>) -> Result<Option<Format>, JsError> {
-    match name {
-        None | Some("") => Ok(None),
-        Some(name) => Format::from_extension(name.trim_start_matches('.'))
-            .map(Some)
-            .ok_or_else(|| {
-                JsError::new(&format!(
-                    "invalid option format: '{name}' is not one of glb, gltf, obj, ply, stl"
-                ))
-            }),
+impl SceneSettings {
+    /// Reads a plain object (`undefined` or `null` mean the defaults).
+    pub fn from_js(value: &JsValue) -> Result<SceneSettings, JsError> {
+        let mut map = plain_object("scene", value)?;
+        check_keys("scene", &map, &SceneOptions::DEFAULT, &SCENE_EXTRA_KEYS)?;
+        let format = format_option(map.remove("format"))?;
+        let options: SceneOptions = schema("scene", map)?;
+        Ok(SceneSettings {
+            format,
+            options: options.with_memory_budget(memory_budget(0)),
+        })
     }
+}
+
+/// `Template.fromBytes` options: the format only.
+pub fn template_format(value: &JsValue) -> Result<Option<Format>, JsError> {
+    let mut map = plain_object("template", value)?;
+    if let Some(key) = map.keys().find(|k| k.as_str() != "format") {
+        return Err(JsError::new(&format!(
+            "unknown template option '{key}'; the only option is format"
+        )));
+    }
+    format_option(map.remove("format"))
 }
 
 /// `match` options: the core's [`MatchOptions`] and a resolution to
@@ -83,98 +88,156 @@ pub struct MatchSettings {
 impl MatchSettings {
     /// Reads a plain object (`undefined` or `null` mean the defaults).
     pub fn from_js(value: &JsValue) -> Result<MatchSettings, JsError> {
-        let mut settings = MatchSettings {
-            options: MatchOptions::DEFAULT,
-            resolution: None,
+        let mut map = plain_object("match", value)?;
+        check_keys("match", &map, &MatchOptions::DEFAULT, &MATCH_EXTRA_KEYS)?;
+        let resolution = match map.remove("resolution") {
+            None => None,
+            Some(value) => Some(field::<u32>("resolution", value)?),
         };
-        if value.is_undefined() || value.is_null() {
-            return Ok(settings);
+        Ok(MatchSettings {
+            options: schema("match", map)?,
+            resolution,
+        })
+    }
+}
+
+/// The defaults of every option, `{ scene, match }`, as the CLI's flags and
+/// the viewer's fields are built from them.
+pub fn defaults() -> Result<JsValue, JsError> {
+    let json = serde_json::json!({
+        "scene": SceneOptions::DEFAULT,
+        "match": MatchOptions::DEFAULT,
+    });
+    js_sys::JSON::parse(&json.to_string()).map_err(|_| JsError::new("cannot build the defaults"))
+}
+
+/// A format name (an extension: glb, gltf, obj, ply, stl).
+fn format_option(value: Option<Value>) -> Result<Option<Format>, JsError> {
+    let name = match value {
+        None => return Ok(None),
+        Some(Value::String(name)) if name.is_empty() => return Ok(None),
+        Some(Value::String(name)) => name,
+        Some(_) => return Err(JsError::new("invalid option format: expected a string")),
+    };
+    Format::from_extension(name.trim_start_matches('.'))
+        .map(Some)
+        .ok_or_else(|| {
+            JsError::new(&format!(
+                "invalid option format: '{name}' is not one of glb, gltf, obj, ply, stl"
+            ))
+        })
+}
+
+/// The keys a schema type serializes to: its settable options.
+fn schema_keys(defaults: &impl Serialize) -> Vec<String> {
+    match serde_json::to_value(defaults) {
+        Ok(Value::Object(map)) => map.into_iter().map(|(k, _)| k).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// Refuses a key that neither the schema nor the binding reads, naming all
+/// that are (serde would refuse it too, without the binding's extra keys).
+fn check_keys(
+    what: &str,
+    map: &Map<String, Value>,
+    defaults: &impl Serialize,
+    extra: &[&str],
+) -> Result<(), JsError> {
+    let mut known = schema_keys(defaults);
+    known.extend(extra.iter().map(|k| k.to_string()));
+    match map.keys().find(|k| !known.contains(k)) {
+        None => Ok(()),
+        Some(key) => Err(JsError::new(&format!(
+            "unknown {what} option '{key}'; the options are {}",
+            known.join(", ")
+        ))),
+    }
+}
+
+/// Deserializes a schema type from the object's remaining keys; a value
+/// serde refuses is reported with its key.
+fn schema<T: DeserializeOwned>(what: &str, map: Map<String, Value>) -> Result<T, JsError> {
+    // One key at a time first (the others take their defaults), so that an
+    // error names the key it is about.
+    for (key, value) in &map {
+        let single = Map::from_iter([(key.clone(), value.clone())]);
+        if let Err(e) = serde_json::from_value::<T>(Value::Object(single)) {
+            return Err(invalid(key, &e));
         }
-        let Some(object) = value.dyn_ref::<Object>() else {
-            return Err(JsError::new("match options must be an object"));
+    }
+    serde_json::from_value(Value::Object(map))
+        .map_err(|e| JsError::new(&format!("invalid {what} options: {}", plain(&e))))
+}
+
+fn field<T: DeserializeOwned>(key: &str, value: Value) -> Result<T, JsError> {
+    serde_json::from_value(value).map_err(|e| invalid(key, &e))
+}
+
+fn invalid(key: &str, error: &serde_json::Error) -> JsError {
+    JsError::new(&format!("invalid option {key}: {}", plain(error)))
+}
+
+/// serde's message in JavaScript's words.
+fn plain(error: &serde_json::Error) -> String {
+    error
+        .to_string()
+        .replace("expected f64", "expected a number")
+        .replace("expected u32", "expected a whole number")
+        .replace("expected usize", "expected a whole number")
+}
+
+/// The own enumerable properties of a plain object as JSON values;
+/// `undefined` properties are left out (they mean "the default").
+fn plain_object(what: &str, value: &JsValue) -> Result<Map<String, Value>, JsError> {
+    let mut map = Map::new();
+    if value.is_undefined() || value.is_null() {
+        return Ok(map);
+    }
+    let Some(object) = value
+        .dyn_ref::<Object>()
+        .filter(|_| !Array::is_array(value))
+    else {
+        return Err(JsError::new(&format!("{what} options must be an object")));
+    };
+    for key in Object::keys(object).iter() {
+        let key = key.as_string().unwrap_or_default();
+        let value = Reflect::get(object, &JsValue::from_str(&key))
+            .map_err(|_| JsError::new(&format!("cannot read option {key}")))?;
+        if value.is_undefined() {
+            continue;
+        }
+        let json = if let Some(n) = value.as_f64() {
+            Value::Number(number(&key, n)?)
+        } else if let Some(s) = value.as_string() {
+            Value::String(s)
+        } else if let Some(b) = value.as_bool() {
+            Value::Bool(b)
+        } else {
+            return Err(JsError::new(&format!(
+                "invalid option {key}: expected a number or a string"
+            )));
         };
-        for key in Object::keys(object).iter() {
-            let key = key.as_string().unwrap_or_default();
-            if !MATCH_KEYS.contains(&key.as_str()) {
-                return Err(JsError::new(&format!(
-                    "unknown match option '{key}'; the options are {}",
-                    MATCH_KEYS.join(", ")
-                )));
-            }
-        }
-        let options = &mut settings.options;
-        if let Some(name) = string(object, "descriptor")? {
-            // Through FromStr, so that every descriptor the core knows is
-            // accepted here without a change.
-            options.descriptor =
-                DescriptorKind::from_str(&name).map_err(|e| JsError::new(&e.to_string()))?;
-        }
-        if let Some(v) = number(object, "resolution")? {
-            settings.resolution = Some(whole_number("resolution", v, 8, 16384)?);
-        }
-        if let Some(v) = number(object, "layers")? {
-            options.layers = whole_number("layers", v, 1, 64)? as usize;
-        }
-        // The core validates the ranges of the thresholds (NaN included).
-        if let Some(v) = number(object, "volumeThreshold")? {
-            options.volume_threshold = v;
-        }
-        if let Some(v) = number(object, "harmonicsThreshold")? {
-            options.harmonics_threshold = v;
-        }
-        if let Some(v) = number(object, "curvatureThreshold")? {
-            options.curvature_threshold = v;
-        }
-        if let Some(v) = number(object, "curvatureSpacing")? {
-            options.curvature_spacing = v;
-        }
-        if let Some(v) = number(object, "verifyThreshold")? {
-            options.verify_threshold = v;
-        }
-        if let Some(v) = number(object, "hiddenSurface")? {
-            options.clutter.hidden_surface = v;
-        }
-        if let Some(v) = number(object, "groupRadius")? {
-            options.group_radius = v;
-        }
-        Ok(settings)
+        map.insert(key, json);
     }
+    Ok(map)
 }
 
-/// The property `key`, or `None` when it is absent or undefined.
-fn property(object: &Object, key: &str) -> Result<Option<JsValue>, JsError> {
-    let value = Reflect::get(object, &JsValue::from_str(key))
-        .map_err(|_| JsError::new(&format!("cannot read option {key}")))?;
-    Ok((!value.is_undefined()).then_some(value))
-}
-
-fn number(object: &Object, key: &str) -> Result<Option<f64>, JsError> {
-    match property(object, key)? {
-        None => Ok(None),
-        Some(value) => value
-            .as_f64()
-            .map(Some)
-            .ok_or_else(|| JsError::new(&format!("invalid option {key}: expected a number"))),
-    }
-}
-
-fn string(object: &Object, key: &str) -> Result<Option<String>, JsError> {
-    match property(object, key)? {
-        None => Ok(None),
-        Some(value) => value
-            .as_string()
-            .map(Some)
-            .ok_or_else(|| JsError::new(&format!("invalid option {key}: expected a string"))),
-    }
-}
-
-/// `value` as an integer in `min..=max`, or an error that says so.
-fn whole_number(name: &str, value: f64, min: u32, max: u32) -> Result<u32, JsError> {
-    if value.fract() == 0.0 && value >= min as f64 && value <= max as f64 {
-        Ok(value as u32)
+/// A JS number as JSON: whole numbers as integers, so that integer options
+/// accept them; NaN and infinities are refused here, naming the key.
+fn number(key: &str, n: f64) -> Result<Number, JsError> {
+    const EXACT: f64 = 9_007_199_254_740_992.0; // 2^53
+    if n.fract() == 0.0 && n.abs() <= EXACT {
+        Ok(if n < 0.0 {
+            Number::from(n as i64)
+        } else {
+            Number::from(n as u64)
+        })
     } else {
-        Err(JsError::new(&format!(
-            "invalid option {name}: expected a whole number in {min}..={max}, got {value}"
-        )))
+        Number::from_f64(n).ok_or_else(|| {
+            JsError::new(&format!(
+                "invalid option {key}: expected a finite number, got {n}"
+            ))
+        })
     }
 }

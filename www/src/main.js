@@ -19,6 +19,8 @@ const state = {
   running: false,
   report: null,
   build: null,
+  /** Whether the option fields were set from the core's defaults. */
+  defaultsApplied: false,
   /** 'starting' | 'loading' | 'ready' | 'searching' | 'done' | 'cancelled' | 'error' (also on <body data-status>). */
   status: 'starting',
   /** The last message shown to the user (tests wait on it). */
@@ -54,6 +56,7 @@ $('message-close').addEventListener('click', dismissMessage);
 
 function showBuild(info) {
   state.build = info;
+  applyDefaults(info.defaults);
   const badge = $('threads-badge');
   if (info.build === 'threads') {
     badge.textContent = `threaded: ${info.threads} threads (cross-origin isolated)`;
@@ -248,6 +251,22 @@ function currentTemplate() {
 
 function descriptor() {
   return $('descriptor').value;
+}
+
+/**
+ * Sets the option fields to the core's defaults (once: a restarted worker
+ * must not undo what the user typed). The page's own values are only what
+ * shows before the module is up.
+ */
+function applyDefaults(defaults) {
+  if (!defaults || state.defaultsApplied) return;
+  state.defaultsApplied = true;
+  const kebab = (key) => key.replace(/[A-Z]/g, (c) => `-${c.toLowerCase()}`);
+  for (const [key, value] of Object.entries({ ...defaults.scene, ...defaults.match })) {
+    const field = document.getElementById(kebab(key));
+    if (field) field.value = String(value);
+  }
+  showThresholds();
 }
 
 function searchOptions() {

@@ -11,7 +11,7 @@
 // Messages out: {type: 'ready', id, info} | {type: 'loaded', id, triangles, ms}
 //               {type: 'layer', id, stats} | {type: 'result', id, report, wallMs}
 //               {type: 'error', id, message}
-import { Scene, Template, init } from '/pkg/index.js';
+import { Scene, Template, init, optionDefaults } from '/pkg/index.js';
 
 let scene = null;
 
@@ -49,7 +49,8 @@ function search({ id, template: spec, options }) {
 onmessage = async ({ data }) => {
   try {
     if (data.type === 'init') {
-      postMessage({ type: 'ready', id: data.id, info: await init() });
+      // The defaults come with the build info: the page's fields start from them.
+      postMessage({ type: 'ready', id: data.id, info: { ...(await init()), defaults: optionDefaults() } });
     } else if (data.type === 'load') {
       load(data);
     } else if (data.type === 'match') {

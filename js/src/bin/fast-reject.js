@@ -1,37 +1,40 @@
 #!/usr/bin/env node
 // The native CLI through the WebAssembly build, so that native and wasm
 // results and times can be compared on the same scenes:
-//   fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
-//               [--descriptor D] [--resolution N] [--threads N] [--layers K]
-//               [--volume-threshold T] [--harmonics-threshold T]
-//               [--curvature-threshold T] [--curvature-spacing F]
-//               [--verify-threshold T] [--hidden-surface T] [--json]
+//   fast-reject match SCENE (--template FILE | --select X,Y,Z,R) [options] [--json]
 //   fast-reject demo [--json]     the demo scene and template shipped in demo/
+// The option flags are the core's options (optionDefaults()), kebab-cased,
+// as in the native CLI: a new option needs no change here.
 import { readFile } from 'node:fs/promises';
 import { extname } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { parseArgs } from 'node:util';
 
-import { Scene, Template, init, memoryBytes } from '../index.js';
+import { Scene, Template, init, memoryBytes, optionDefaults } from '../index.js';
 
-const USAGE = `usage: fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
-                   [--descriptor volume+harmonics|volume|harmonics|curvature] [--resolution N]
-                   [--threads N] [--layers K] [--volume-threshold T]
-                   [--harmonics-threshold T] [--curvature-threshold T]
-                   [--curvature-spacing F]
-                   [--verify-threshold T] [--hidden-surface T] [--json]
+/** `volumeThreshold` -> `volume-threshold`. */
+const kebab = (key) => key.replace(/[A-Z]/g, (c) => `-${c.toLowerCase()}`);
+
+/** The option flags, from the core's defaults: flag -> { group, key, fallback }. */
+function optionFlags(defaults) {
+  const flags = {};
+  for (const group of ['scene', 'match']) {
+    for (const [key, fallback] of Object.entries(defaults[group])) {
+      flags[kebab(key)] = { group, key, fallback };
+    }
+  }
+  return flags;
+}
+
+function usage(flags) {
+  const options = Object.entries(flags)
+    .map(([flag, { fallback }]) => `[--${flag} ${typeof fallback === 'number' ? 'N' : 'NAME'} (default ${fallback})]`)
+    .join('\n                   ');
+  return `usage: fast-reject match SCENE (--template FILE | --select X,Y,Z,R)
+                   ${options}
+                   [--threads N] [--json]
        fast-reject demo [--json]`;
-
-/** Numeric flags and the match option each one sets. */
-const NUMERIC_FLAGS = {
-  layers: 'layers',
-  'volume-threshold': 'volumeThreshold',
-  'harmonics-threshold': 'harmonicsThreshold',
-  'curvature-threshold': 'curvatureThreshold',
-  'curvature-spacing': 'curvatureSpacing',
-  'verify-threshold': 'verifyThreshold',
-  'hidden-surface': 'hiddenSurface',
-};
+}
 
 class UsageError extends Error {}
 
@@ -43,17 +46,15 @@ function parseNumber(flag, text) {
   return value;
 }
 
-function parseCommandLine(argv) {
+function parseCommandLine(argv, flags) {
   const options = {
     template: { type: 'string' },
     select: { type: 'string' },
-    descriptor: { type: 'string' },
-    resolution: { type: 'string' },
     threads: { type: 'string' },
     json: { type: 'boolean' },
     help: { type: 'boolean', short: 'h' },
   };
-  for (const flag of Object.keys(NUMERIC_FLAGS)) options[flag] = { type: 'string' };
+  for (const flag of Object.keys(flags)) options[flag] = { type: 'string' };
   // Values may start with '-' (a negative coordinate in --select): join each
   // valued flag with its value so that parseArgs never takes it for a flag.
   const valued = new Set(Object.keys(options).filter((k) => options[k].type === 'string').map((k) => `--${k}`));
@@ -71,7 +72,7 @@ function parseCommandLine(argv) {
   if (values.help) return { help: true };
   if (positionals[0] === 'demo' && positionals.length === 1) {
     const demo = (name) => fileURLToPath(new URL(`../demo/${name}`, import.meta.url));
-    return { scene: demo('scene.glb'), template: demo('template.glb'), json: !!values.json, match: {} };
+    return { scene: demo('scene.glb'), template: demo('template.glb'), json: !!values.json, sceneOptions: {}, match: {} };
   }
   if (positionals[0] !== 'match' || positionals.length !== 2) {
     throw new UsageError('expected: match SCENE, or demo');
@@ -87,10 +88,10 @@ function parseCommandLine(argv) {
     }
     select = parts.map((p) => parseNumber('select', p));
   }
-  const match = {};
-  if (values.descriptor !== undefined) match.descriptor = values.descriptor;
-  for (const [flag, key] of Object.entries(NUMERIC_FLAGS)) {
-    if (values[flag] !== undefined) match[key] = parseNumber(flag, values[flag]);
+  const chosen = { scene: {}, match: {} };
+  for (const [flag, { group, key, fallback }] of Object.entries(flags)) {
+    if (values[flag] === undefined) continue;
+    chosen[group][key] = typeof fallback === 'number' ? parseNumber(flag, values[flag]) : values[flag];
   }
   const threads = values.threads === undefined ? undefined : parseNumber('threads', values.threads);
   if (threads !== undefined && !(Number.isInteger(threads) && threads >= 1)) {
@@ -100,10 +101,10 @@ function parseCommandLine(argv) {
     scene: positionals[1],
     template: values.template,
     select,
-    resolution: values.resolution === undefined ? undefined : parseNumber('resolution', values.resolution),
     threads,
     json: !!values.json,
-    match,
+    sceneOptions: chosen.scene,
+    match: chosen.match,
   };
 }
 
@@ -149,12 +150,19 @@ function printTable(report, build) {
 }
 
 async function main(argv) {
-  const args = parseCommandLine(argv);
+  const { build } = await init();
+  const flags = optionFlags(optionDefaults());
+  let args;
+  try {
+    args = parseCommandLine(argv, flags);
+  } catch (error) {
+    if (error instanceof UsageError) error.usage = usage(flags);
+    throw error;
+  }
   if (args.help) {
-    console.log(USAGE);
+    console.log(usage(flags));
     return;
   }
-  const { build } = await init();
   if (args.threads > 1) {
     console.error(`note: --threads ${args.threads}: Node runs the plain wasm build on one thread`);
   }
@@ -166,7 +174,7 @@ async function main(argv) {
   const readMs = performance.now() - start;
   let scene;
   try {
-    scene = Scene.fromBytes(sceneBytes, { format: formatOf(args.scene), resolution: args.resolution });
+    scene = Scene.fromBytes(sceneBytes, { format: formatOf(args.scene), ...args.sceneOptions });
   } catch (error) {
     throw new Error(`scene '${args.scene}': ${error.message}`);
   }
@@ -194,6 +202,6 @@ async function main(argv) {
 
 main(process.argv.slice(2)).catch((error) => {
   console.error(`error: ${error.message}`);
-  if (error instanceof UsageError) console.error(USAGE);
+  if (error.usage) console.error(error.usage);
   process.exitCode = error instanceof UsageError ? 2 : 1;
 });

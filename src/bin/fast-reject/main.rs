@@ -7,13 +7,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use fast_reject::Format;
 use fast_reject::exec::Backend;
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::load_with_resources;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
 use fast_reject::template::TemplateSource;
-use fast_reject::{Error, Format};
 use folder_resolver::FolderResolver;
 
 /// Finds every occurrence of a template shape in a 3D scene (Fast Reject,
@@ -28,7 +28,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Search SCENE for a template model or for a part picked with a sphere.
-    Match(MatchArgs),
+    Match(Box<MatchArgs>),
     /// Run on the small scene and template embedded in this program.
     Demo {
         /// Print the result as JSON.
@@ -47,12 +47,8 @@ struct MatchArgs {
     /// A part of the scene: sphere centre and radius, "X,Y,Z,R" in scene units.
     #[arg(long, value_name = "X,Y,Z,R", allow_hyphen_values = true)]
     select: Option<String>,
-    /// Descriptors to run.
-    #[arg(long, default_value = "volume+harmonics", value_parser = ["volume+harmonics", "volume", "harmonics", "curvature"])]
-    descriptor: String,
-    /// Voxels along the scene's longest side.
-    #[arg(long, default_value_t = SceneOptions::DEFAULT.resolution)]
-    resolution: u32,
+    #[command(flatten)]
+    scene_options: SceneOptions,
     /// Memory budget in MiB for the scene and the search: what would need
     /// more is refused before it is allocated.
     #[arg(long, value_name = "MIB", default_value_t = SceneOptions::DEFAULT.memory_budget >> 20)]
@@ -60,33 +56,8 @@ struct MatchArgs {
     /// Worker threads (1 runs the serial backend; default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Number of radii k.
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.layers)]
-    layers: usize,
-    /// Volume stage threshold (sum of fraction differences).
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.volume_threshold)]
-    volume_threshold: f64,
-    /// Harmonics stage threshold (voxels of equivalent deviation).
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.harmonics_threshold)]
-    harmonics_threshold: f64,
-    /// Curvature threshold (sum of squared differences of the Gaussian
-    /// curvatures scaled by r_k^2).
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_threshold)]
-    curvature_threshold: f64,
-    /// Curvature: 0 makes every vertex a candidate; a positive value runs a
-    /// first pass on one vertex per grid cell of this side (a fraction of
-    /// the innermost radius), then every vertex near its survivors: several
-    /// times faster, but it can miss an occurrence.
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.curvature_spacing)]
-    curvature_spacing: f64,
-    /// Verification: least share of the template's visible surface that must
-    /// lie on the scene's surface (0..1).
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.verify_threshold)]
-    verify_threshold: f64,
-    /// Verification: largest share of a model template's surface that other
-    /// material may hide (0..1).
-    #[arg(long, default_value_t = MatchOptions::DEFAULT.clutter.hidden_surface)]
-    hidden_surface: f64,
+    #[command(flatten)]
+    options: MatchOptions,
     /// Print the result as one JSON object.
     #[arg(long)]
     json: bool,
@@ -95,7 +66,7 @@ struct MatchArgs {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Match(args) => run_match(args),
+        Command::Match(args) => run_match(*args),
         Command::Demo { json } => run_demo(json),
     };
     match result {
@@ -124,21 +95,12 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         Some(1) => Backend::Serial,
         _ => Backend::Parallel,
     };
-    let descriptor: DescriptorKind = args.descriptor.parse().map_err(|e: Error| e.to_string())?;
-    let mut options = MatchOptions::DEFAULT;
-    options.descriptor = descriptor;
-    options.layers = args.layers;
-    options.volume_threshold = args.volume_threshold;
-    options.harmonics_threshold = args.harmonics_threshold;
-    options.curvature_threshold = args.curvature_threshold;
-    options.curvature_spacing = args.curvature_spacing;
-    options.verify_threshold = args.verify_threshold;
-    options.clutter.hidden_surface = args.hidden_surface;
+    let descriptor = args.options.descriptor;
+    let mut options = args.options;
     options.backend = backend;
-    let scene_options = SceneOptions::DEFAULT
-        .with_resolution(args.resolution)
-        .with_memory_budget(args.memory_budget.saturating_mul(1 << 20))
-        .with_backend(backend);
+    let mut scene_options = args.scene_options;
+    scene_options.memory_budget = args.memory_budget.saturating_mul(1 << 20);
+    scene_options.backend = backend;
     let job = || -> Result<MatchReport, String> {
         let start = std::time::Instant::now();
         let scene_mesh = load_file(&args.scene)?;
