@@ -16,7 +16,7 @@ use fast_reject::descriptor::curvature::CurvatureDescriptor;
 use fast_reject::descriptor::curvature::{Surface, VertexGrid};
 use fast_reject::scene::SceneOptions;
 use fast_reject::search::MatchOptions;
-use fast_reject::template::SurfaceTemplate;
+use fast_reject::template::CurvatureTemplate;
 use rayon::prelude::*;
 
 /// A covering sample, taken greedily in vertex order: every vertex within
@@ -45,7 +45,7 @@ fn main() {
     let scene = common::scene(name, &SceneOptions::DEFAULT);
     let source = common::template(name, select);
     let options = MatchOptions::DEFAULT;
-    let template = SurfaceTemplate::new(&source, &scene, options.layers).unwrap();
+    let template = CurvatureTemplate::new(&source, &scene, options.layers).unwrap();
     let radii = template.radii().to_vec();
     let gaussians =
         CurvatureDescriptor::describe(template.surface(&scene), template.vertex(), &radii);

@@ -11,7 +11,7 @@
 //! ```text
 //!  bytes --load--> TriMesh --Scene::new--> Scene
 //!                                          |  voxel pipeline: solid grid, skin voxels
-//!                                          |  surface pipeline: welded mesh, vertices
+//!                                          |  curvature pipeline: welded mesh, vertices
 //!  TemplateSource (a model, or a sphere    v
 //!  around part of the scene) ---------> template: c_T, r_1..r_k, its layers
 //!                                          |
@@ -26,7 +26,8 @@
 //! ```
 //!
 //! The core takes bytes and slices, never paths, and runs the same on
-//! native targets and in WebAssembly (the `wasm` module, on `wasm32-unknown-unknown`, is the JavaScript
+//! native targets and in WebAssembly (the `wasm` module, on
+//! `wasm32-unknown-unknown` with the `serde` feature, is the JavaScript
 //! binding).
 //!
 //! ```no_run

@@ -1,11 +1,11 @@
 //! The whole search: template, cascade, verification, grouping, with
 //! timings. Two pipelines share the cascade: the voxel one (`voxel.rs`: volume
-//! and harmonics on the scene's skin voxels) and the surface one
-//! (`surface.rs`: curvature on the welded mesh's vertices).
+//! and harmonics on the scene's skin voxels) and the curvature one
+//! (`curvature.rs`: on the welded mesh's vertices).
 
+mod curvature;
 mod options;
 mod report;
-mod surface;
 mod voxel;
 
 pub use options::{DescriptorKind, MatchOptions};
@@ -25,7 +25,7 @@ pub fn search(
 ) -> Result<MatchReport> {
     options.validate()?;
     if options.descriptor == DescriptorKind::Curvature {
-        return surface::search_surface(scene, source, options, observer);
+        return curvature::search_curvature(scene, source, options, observer);
     }
     voxel::search_voxels(scene, source, options, observer)
 }

@@ -13,7 +13,7 @@ use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescripto
 use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
 use crate::scene::Scene;
-use crate::template::{Template, TemplateSource};
+use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::{Verifier, moment_level};
 use crate::voxel::level_for_radius;
 
@@ -26,7 +26,7 @@ pub(super) fn search_voxels(
 ) -> Result<MatchReport> {
     let build_template = || {
         let start = now_ms();
-        let template = Template::new(source, scene, options.layers, options.backend);
+        let template = VoxelTemplate::new(source, scene, options.layers, options.backend);
         (template, now_ms() - start)
     };
     let fresh = !scene.is_voxelized();
@@ -158,7 +158,7 @@ pub(super) fn search_voxels(
 /// Checks, before any ball table is built, that a voxel search fits the
 /// scene's memory budget: the scene's grids, a model template's own, the
 /// run tables of the volume and verification balls and the cascade's state.
-fn check_voxel_search(scene: &Scene, template: &Template) -> Result<()> {
+fn check_voxel_search(scene: &Scene, template: &VoxelTemplate) -> Result<()> {
     let voxel = scene.voxel_size();
     let mut estimate = scene.voxel_estimate();
     let tsolid = template.solid(scene);

@@ -14,13 +14,13 @@
 //! The radii are evenly spaced, r_i = r_k i / k. The voxel descriptors are
 //! computed at the skin voxel nearest to c_T, a point of the same kind as the
 //! scene's candidates; the curvature descriptor at the mesh vertex nearest to
-//! c_T ([`SurfaceTemplate`]), for the same reason.
+//! c_T ([`CurvatureTemplate`]), for the same reason.
 
-mod surface;
+mod curvature;
 mod voxel;
 
-pub use surface::SurfaceTemplate;
-pub use voxel::Template;
+pub use curvature::CurvatureTemplate;
+pub use voxel::VoxelTemplate;
 
 use crate::error::{Error, Result};
 use crate::math::Vec3;

@@ -6,19 +6,19 @@ use crate::exec::Backend;
 use crate::mesh::shapes::{cuboid, uv_sphere};
 use crate::scene::SceneOptions;
 
-/// [`Template::new`] as every test here calls it: the one place to change
+/// [`VoxelTemplate::new`] as every test here calls it: the one place to change
 /// when its signature does.
-fn voxel_template(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<Template> {
-    Template::new(source, scene, layers, Backend::Serial)
+fn voxel_template(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<VoxelTemplate> {
+    VoxelTemplate::new(source, scene, layers, Backend::Serial)
 }
 
-/// [`SurfaceTemplate::new`], likewise.
+/// [`CurvatureTemplate::new`], likewise.
 fn surface_template(
     source: &TemplateSource,
     scene: &Scene,
     layers: usize,
-) -> Result<SurfaceTemplate> {
-    SurfaceTemplate::new(source, scene, layers)
+) -> Result<CurvatureTemplate> {
+    CurvatureTemplate::new(source, scene, layers)
 }
 
 /// A unit sphere (2 across, diagonal 2 sqrt 3) at `resolution`.

@@ -14,7 +14,7 @@ use crate::scene::{Scene, check_voxel_work, nearest_voxel};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
 
 /// A template prepared against a scene.
-pub struct Template {
+pub struct VoxelTemplate {
     center: Vec3,
     radius: f64,
     radii: Vec<f64>,
@@ -29,14 +29,14 @@ struct OwnVoxels {
     skin: Vec<[u16; 3]>,
 }
 
-impl Template {
+impl VoxelTemplate {
     /// Prepares `source` for searching `scene` with `layers` radii.
     pub fn new(
         source: &TemplateSource,
         scene: &Scene,
         layers: usize,
         backend: Backend,
-    ) -> Result<Template> {
+    ) -> Result<VoxelTemplate> {
         check_layers(layers)?;
         let voxel_size = scene.voxel_size();
         let (center, radius, own, voxel) = match source {
@@ -101,7 +101,7 @@ impl Template {
         if first / voxel_size < MIN_RADIUS_VOXELS {
             return Err(too_small(first / voxel_size, scene.resolution()));
         }
-        Ok(Template {
+        Ok(VoxelTemplate {
             center,
             radius,
             radii: evenly_spaced(radius, layers),
@@ -130,7 +130,7 @@ impl Template {
         self.own.as_ref().map_or(scene.solid(), |own| &own.solid)
     }
 
-    /// The skin voxels of [`Template::solid`].
+    /// The skin voxels of [`VoxelTemplate::solid`].
     pub fn skin<'a>(&'a self, scene: &'a Scene) -> &'a [[u16; 3]] {
         self.own.as_ref().map_or(scene.skin(), |own| &own.skin)
     }
@@ -140,7 +140,7 @@ impl Template {
         self.voxel
     }
 
-    /// c_T relative to the centre of [`Template::voxel`], in voxels.
+    /// c_T relative to the centre of [`VoxelTemplate::voxel`], in voxels.
     pub fn center_offset(&self, scene: &'_ Scene) -> Vec3 {
         let spec = self.solid(scene).bits().spec();
         (self.center - spec.center(self.voxel)) * (1.0 / spec.voxel_size)

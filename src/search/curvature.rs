@@ -1,5 +1,5 @@
-//! The surface pipeline, for the curvature descriptor: the scene's welded
-//! mesh, its vertices as candidates, the mirror test, then grouping.
+//! The curvature pipeline: the scene's welded mesh, its vertices as
+//! candidates, the mirror test, then grouping.
 
 use super::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
@@ -13,14 +13,14 @@ use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;
 use crate::scene::Scene;
-use crate::template::{SurfaceTemplate, TemplateSource};
+use crate::template::{CurvatureTemplate, TemplateSource};
 
 /// The curvature search: candidates are the scene's welded vertices;
 /// the best survivor of each blob must turn the same way as the template
 /// ([`MirrorTest`]), then survivors are grouped. There is no voxel
 /// verification: the shapes this descriptor is for are bent, so a rigid
 /// placement would not fit them.
-pub(super) fn search_surface(
+pub(super) fn search_curvature(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
@@ -29,7 +29,7 @@ pub(super) fn search_surface(
     check_surface_search(scene, source)?;
     let surface = scene.surface();
     let t0 = now_ms();
-    let template = SurfaceTemplate::new(source, scene, options.layers)?;
+    let template = CurvatureTemplate::new(source, scene, options.layers)?;
     let radii = template.radii();
     let template_surface = template.surface(scene);
     let template_layers =

@@ -9,7 +9,7 @@ use crate::mesh::minimal_bounding_sphere;
 use crate::scene::Scene;
 
 /// A template for the curvature descriptor, prepared on the mesh: no voxels.
-pub struct SurfaceTemplate {
+pub struct CurvatureTemplate {
     vertex: u32,
     center: Vec3,
     radius: f64,
@@ -17,11 +17,11 @@ pub struct SurfaceTemplate {
     own_surface: Option<Surface>,
 }
 
-impl SurfaceTemplate {
+impl CurvatureTemplate {
     /// Prepares `source` for searching `scene`'s surface with `layers` radii.
     /// c_T is the template's (or for a selection, the scene's) mesh vertex
     /// nearest to the surface point the voxel templates use.
-    pub fn new(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<SurfaceTemplate> {
+    pub fn new(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<CurvatureTemplate> {
         check_layers(layers)?;
         let (own_surface, target, radius) = match source {
             TemplateSource::Model(mesh) => {
@@ -51,7 +51,7 @@ impl SurfaceTemplate {
                 .map(|v| surface.position(v).distance(center))
                 .fold(0.0, f64::max)
         });
-        Ok(SurfaceTemplate {
+        Ok(CurvatureTemplate {
             vertex,
             center,
             radius,
@@ -76,7 +76,7 @@ impl SurfaceTemplate {
     }
 
     /// The vertex the template's descriptor is computed at, on
-    /// [`SurfaceTemplate::surface`].
+    /// [`CurvatureTemplate::surface`].
     pub fn vertex(&self) -> u32 {
         self.vertex
     }
