@@ -24,9 +24,6 @@ export function threadsSupported(): boolean;
 /** Linear memory the module holds now; after a search, its peak. */
 export function memoryBytes(): number;
 
-/** How many distinct threads ran `tasks` pieces of parallel work (1 in the plain build). */
-export function threadsUsed(tasks?: number): number;
-
 /** A mesh format, by its file extension. */
 export type MeshFormat = 'glb' | 'gltf' | 'obj' | 'ply' | 'stl';
 

@@ -238,8 +238,3 @@ export function optionDefaults() {
 export function memoryBytes() {
   return call((glue) => glue.memoryBytes());
 }
-
-/** How many distinct threads ran `tasks` small pieces of parallel work (1 in the plain build). */
-export function threadsUsed(tasks = 1024) {
-  return call((glue) => glue.threadsUsed(tasks));
-}

@@ -5,7 +5,9 @@ import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import { test } from 'node:test';
 
-import { Scene, Template, init, memoryBytes, optionDefaults, threadsUsed } from '../../pkg/index.js';
+import { Scene, Template, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
+// The test probe, from the plain build's glue: the instance index.js loads.
+import { threadsUsed } from '../../pkg/plain/fast_reject.js';
 
 const shared = new URL('../../../shared/scenes/', import.meta.url);
 const sceneBytes = await readFile(new URL('zoo-bunny/scene.glb', shared));

@@ -35,7 +35,7 @@ node_modules/.bin/fast-reject demo --json | node -e "
 
 echo "-- tsc checks a program against the package's types"
 cat > src/main.ts <<'TS'
-import { init, Scene, Template, type MatchReport, type LayerStats } from 'fast-reject';
+import { init, Scene, Template, type MatchReport, type LayerStats, type MatchOptions, type SceneOptions } from 'fast-reject';
 
 export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): Promise<MatchReport> {
   const info = await init({ build: 'auto' });
@@ -53,6 +53,12 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   template.free();
   // @ts-expect-error: a resolution is a number
   Scene.fromBytes(sceneBytes, { resolution: 'high' });
+  // @ts-expect-error: descriptors are a union of names, not any string
+  const misspelt: MatchOptions = { descriptor: 'curvatur' };
+  // @ts-expect-error: an unknown option is a type error (and a runtime one)
+  const unknown: SceneOptions = { resolutoin: 64 };
+  void misspelt;
+  void unknown;
   // @ts-expect-error: handles come from the factories only
   new Scene();
   return report;

@@ -1,6 +1,16 @@
 // Loads the package the way a viewer's worker would, runs one search and
 // reports instances, timings, threads and memory.
-import { Scene, Template, init, memoryBytes, threadsUsed } from '/pkg/index.js';
+import { Scene, Template, init, memoryBytes } from '/pkg/index.js';
+
+/**
+ * The test probe `threadsUsed` is not in the package's API: it is read from
+ * the build's own glue, the same module instance that index.js loaded (an
+ * ES module is one instance per URL), so it runs in the initialized pool.
+ */
+async function threadsUsed(build, tasks) {
+  const glue = await import(`/pkg/${build}/fast_reject.js`);
+  return glue.threadsUsed(tasks);
+}
 
 async function bytes(url) {
   const response = await fetch(url);
@@ -27,7 +37,7 @@ onmessage = async ({ data: job }) => {
     scene.free();
     postMessage({
       info,
-      threadsUsed: threadsUsed(1024),
+      threadsUsed: await threadsUsed(info.build, 1024),
       layers,
       wallMs,
       memoryBytes: memoryBytes(),
