@@ -33,6 +33,17 @@ targets=("$@")
 # Also caps the size of single allocations (libFuzzer's -malloc_limit_mb
 # defaults to it): a loader that believes a header's count fails here.
 limits=(-rss_limit_mb=2048 -timeout=10)
+# A search's time follows its candidates, and AddressSanitizer makes it
+# about 20 times slower than a release build: search_small bounds its work
+# (resolution, survivors per layer) and gets a longer timeout, still far
+# below what a real hang would take.
+limits_for() {
+  if [[ $1 == search_small ]]; then
+    echo -rss_limit_mb=2048 -timeout=60
+  else
+    echo "${limits[@]}"
+  fi
+}
 
 if ! command -v cargo-fuzz >/dev/null; then
   echo "fuzz: cargo-fuzz is missing; run: bash scripts/install-tools.sh" >&2
@@ -52,7 +63,8 @@ failed=()
 for target in "${targets[@]}"; do
   mapfile -t inputs < <(find "fuzz/seeds/$target" "fuzz/regressions/$target" -type f 2>/dev/null | sort)
   out=$logs/$target.replay.log
-  if "${fuzz[@]}" run "$target" "${inputs[@]}" -- "${limits[@]}" >"$out" 2>&1; then
+  read -ra target_limits <<<"$(limits_for "$target")"
+  if "${fuzz[@]}" run "$target" "${inputs[@]}" -- "${target_limits[@]}" >"$out" 2>&1; then
     printf '%-14s replay: %s seeds and regressions pass\n' "$target" "${#inputs[@]}"
   else
     input=$(sed -n 's/^Running: //p' "$out" | tail -1)
@@ -73,16 +85,17 @@ for target in "${targets[@]}"; do
   artifacts=fuzz/artifacts/$target
   mkdir -p "$artifacts"
   stamp=$(mktemp)
+  read -ra target_limits <<<"$(limits_for "$target")"
   status=ok
   start=$SECONDS
   if [[ ${FUZZ_KEEP_GOING:-0} == 1 ]]; then
-    "${fuzz[@]}" run "$target" "$corpus" -- -max_total_time="$seconds" "${limits[@]}" \
+    "${fuzz[@]}" run "$target" "$corpus" -- -max_total_time="$seconds" "${target_limits[@]}" \
       -fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1 >"$out" 2>&1 || status=CRASH
     # Fork mode's progress lines: "#RUNS: cov: ... crash/oom/timeout ...".
     runs=$(sed -n 's/^#\([0-9]*\): cov:.*/\1/p' "$out" | tail -1)
   else
     "${fuzz[@]}" run "$target" "$corpus" -- -max_total_time="$seconds" -print_final_stats=1 \
-      "${limits[@]}" >"$out" 2>&1 || status=CRASH
+      "${target_limits[@]}" >"$out" 2>&1 || status=CRASH
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$out" | tail -1)
   fi
   elapsed=$((SECONDS - start))
