@@ -32,6 +32,12 @@ pub struct Instance {
     pub score: Option<f64>,
     /// How many surviving points the instance gathered.
     pub support: usize,
+    /// The template's pose: a 4x4 row-major matrix (last row 0 0 0 1) from
+    /// template to scene coordinates, like the transforms of the shared
+    /// scenes' truth.json (for a selection, template coordinates are the
+    /// scene's). It maps c_T to `position`. None where the descriptor has no
+    /// verification (curvature), which is what finds the rotation.
+    pub transform: Option<[[f64; 4]; 4]>,
 }
 
 /// A survivor with its verification.
@@ -43,6 +49,18 @@ pub struct Verified {
     pub score: f64,
     /// Where its placement puts the template's point c_T (world).
     pub position: Vec3,
+    /// The placement as a transform (see [`Instance::transform`]).
+    pub transform: Option<[[f64; 4]; 4]>,
+}
+
+/// The row-major 4x4 transform that turns by `rotation` (rows) about the
+/// template's point `center` and moves it to `position`: x -> R (x - c) + p.
+pub fn placement_transform(rotation: &[Vec3; 3], center: Vec3, position: Vec3) -> [[f64; 4]; 4] {
+    let row = |i: usize| {
+        let r = rotation[i];
+        [r.x, r.y, r.z, position[i] - r.dot(center)]
+    };
+    [row(0), row(1), row(2), [0.0, 0.0, 0.0, 1.0]]
 }
 
 /// The best survivor of each blob: survivors are taken by increasing
@@ -99,6 +117,7 @@ pub fn group(
                     distance: v.survivor.distance,
                     score: Some(v.score),
                     support: 0,
+                    transform: v.transform,
                 },
             ));
         }
@@ -149,6 +168,7 @@ mod tests {
                 survivor: b,
                 score: scores[b.point as usize],
                 position: pos(b.point),
+                transform: None,
             })
             .collect();
         let g = group(&v, &s, pos, 1.0);
@@ -157,5 +177,29 @@ mod tests {
         assert_eq!(g[0].support, 2);
         assert_eq!(g[1].position, [0.1, 0.0, 0.0]);
         assert_eq!(g[1].support, 3);
+    }
+
+    #[test]
+    fn a_placement_transform_moves_c_t_to_the_position_and_turns_about_it() {
+        // A quarter turn about z: x -> y, y -> -x.
+        let rotation = [
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let (center, position) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(10.0, 20.0, 30.0));
+        let t = placement_transform(&rotation, center, position);
+        let apply = |p: Vec3| {
+            Vec3::new(
+                t[0][0] * p.x + t[0][1] * p.y + t[0][2] * p.z + t[0][3],
+                t[1][0] * p.x + t[1][1] * p.y + t[1][2] * p.z + t[1][3],
+                t[2][0] * p.x + t[2][1] * p.y + t[2][2] * p.z + t[2][3],
+            )
+        };
+        assert!((apply(center) - position).length() < 1e-12);
+        // One unit along x from c_T lands one unit along y from the position.
+        let moved = apply(center + Vec3::X) - position;
+        assert!((moved - Vec3::Y).length() < 1e-12, "{moved}");
+        assert_eq!(t[3], [0.0, 0.0, 0.0, 1.0]);
     }
 }

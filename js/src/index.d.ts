@@ -97,7 +97,17 @@ export interface Instance {
   score: number | null;
   /** Surviving points the instance gathered. */
   support: number;
+  /** The template's pose: a row-major 4x4 matrix from template to scene coordinates (it maps c_T to `position`); null for curvature, which finds no rotation. */
+  transform: Matrix4 | null;
 }
+
+/** A row-major 4x4 matrix; the last row is 0, 0, 0, 1. */
+export type Matrix4 = [
+  [number, number, number, number],
+  [number, number, number, number],
+  [number, number, number, number],
+  [number, number, number, number],
+];
 
 /** The native CLI's JSON (`fast-reject match --json`), plus typed arrays for drawing. */
 export interface MatchReport {

@@ -82,6 +82,13 @@ test('bad input is an Error and the module stays usable', async () => {
   assert.ok(report.instancePositions instanceof Float64Array);
   assert.equal(report.instancePositions.length, 3 * report.instances.length);
   assert.equal(report.highlightRadius, report.template.radius);
+  // Each instance's pose: a 4x4 matrix that maps c_T to its position.
+  for (const instance of report.instances) {
+    const [t, c] = [instance.transform, report.template.center];
+    assert.deepEqual(t[3], [0, 0, 0, 1]);
+    const mapped = [0, 1, 2].map((r) => t[r][0] * c[0] + t[r][1] * c[1] + t[r][2] * c[2] + t[r][3]);
+    mapped.forEach((v, k) => assert.ok(Math.abs(v - instance.position[k]) < 1e-9));
+  }
   assert.ok(memoryBytes() > 0);
   template.free();
   scene.free();

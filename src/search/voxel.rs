@@ -11,7 +11,7 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::Result;
-use crate::instances::{Verified, group, local_bests};
+use crate::instances::{Verified, group, local_bests, placement_transform};
 use crate::scene::Scene;
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::{Verifier, moment_level};
@@ -118,10 +118,16 @@ pub(super) fn search_voxels(
         .map_each(bests.len(), |i| {
             let v = scene.skin()[bests[i].point as usize];
             let placement = verifier.check(scene.solid(), scene.near_surface(), v);
+            let position = scene.position(bests[i].point) + placement.offset * voxel;
             Verified {
                 survivor: bests[i],
                 score: placement.score(),
-                position: scene.position(bests[i].point) + placement.offset * voxel,
+                position,
+                transform: Some(placement_transform(
+                    &placement.rotation,
+                    template.center(),
+                    position,
+                )),
             }
         })
         .into_iter()

@@ -105,6 +105,62 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
+fn compose(a: &serde_json::Value, b: &serde_json::Value) -> serde_json::Value {
+    let m = |t: &serde_json::Value, r: usize, c: usize| t[r][c].as_f64().unwrap();
+    serde_json::json!(
+        (0..4)
+            .map(|r| (0..4)
+                .map(|c| (0..4).map(|k| m(a, r, k) * m(b, k, c)).sum::<f64>())
+                .collect::<Vec<f64>>())
+            .collect::<Vec<_>>()
+    )
+}
+
+/// How far each reported pose is from the truth, as a share of r_k: for
+/// every instance, the nearest truth placement (through any of the
+/// template's symmetries) and the largest distance between where the two
+/// put c_T and the six points at r_k from it along the axes; the worst
+/// instance's. Panics when an instance has no pose.
+pub fn worst_pose_error(truth: &serde_json::Value, report: &MatchReport) -> f64 {
+    let (c, r) = (report.template.center, report.template.radius);
+    let mut probes = vec![c];
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let mut p = c;
+            p[axis] += sign * r;
+            probes.push(p);
+        }
+    }
+    let symmetries: Vec<Option<&serde_json::Value>> = match truth.get("template_symmetries") {
+        Some(serde_json::Value::Array(s)) if !s.is_empty() => s.iter().map(Some).collect(),
+        _ => vec![None],
+    };
+    let mut truths = Vec::new();
+    for t in truth["instances"].as_array().unwrap() {
+        for s in &symmetries {
+            truths.push(match s {
+                None => t["transform"].clone(),
+                Some(s) => compose(&t["transform"], s),
+            });
+        }
+    }
+    let mut worst: f64 = 0.0;
+    for instance in &report.instances {
+        let pose = serde_json::json!(instance.transform.expect("a voxel search reports a pose"));
+        let error = truths
+            .iter()
+            .map(|t| {
+                probes
+                    .iter()
+                    .map(|&p| dist(apply(&pose, p), apply(t, p)))
+                    .fold(0.0, f64::max)
+            })
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(error / r);
+    }
+    worst
+}
+
 /// Scores a report against a scene's truth the way evaluate.py does.
 pub fn score(truth: &serde_json::Value, report: &MatchReport, select: bool) -> Score {
     let tol = truth
