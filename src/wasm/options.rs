@@ -59,10 +59,11 @@ impl SceneSettings {
         let mut map = plain_object("scene", value)?;
         check_keys("scene", &map, &SceneOptions::DEFAULT, &SCENE_EXTRA_KEYS)?;
         let format = format_option(map.remove("format"))?;
-        let options: SceneOptions = schema("scene", map)?;
+        // The memory budget is the caller's to set, once the mesh is parsed
+        // and its size known.
         Ok(SceneSettings {
             format,
-            options: options.with_memory_budget(memory_budget(0)),
+            options: schema("scene", map)?,
         })
     }
 }
