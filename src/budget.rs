@@ -7,8 +7,11 @@
 //! change, instead of aborting the process or trapping the wasm module
 //! halfway through. Estimates are upper bounds, not measurements.
 
+use crate::descriptor::volume::BLOCKS_PER_RADIUS;
+use crate::error::MemoryEstimate;
 use crate::mesh::TriMesh;
-use crate::voxel::{GridSpec, MAX_LEVEL};
+use crate::verify::moment_level;
+use crate::voxel::{GridSpec, MAX_LEVEL, level_for_radius};
 
 /// Bit grids alive at once while voxelizing (surface, interior, solid,
 /// skin, near surface).
@@ -92,10 +95,21 @@ pub(crate) fn ball_bytes(radius: f64, level: u32) -> u64 {
     }
 }
 
+/// Adds the run tables of the volume and verification balls for layer
+/// radii of `radii` voxels.
+pub(crate) fn add_ball_tables(estimate: &mut MemoryEstimate, radii: &[f64]) {
+    for &r in radii {
+        estimate.add(
+            "ball tables",
+            ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)),
+        );
+        estimate.add("ball tables", ball_bytes(r, moment_level(r)));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::MemoryEstimate;
     use crate::math::Vec3;
     use crate::voxel::Ball;
 

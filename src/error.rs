@@ -176,6 +176,26 @@ pub enum Error {
         advice: String,
     },
 
+    /// The parts a search would voxelize one by one have bounding boxes far
+    /// larger together than the scene's: they overlap many times over
+    /// (large triangles crossing each other, each its own part), and each
+    /// part's grid fills its box.
+    #[error(
+        "the scene's parts that could hold the template span {voxels:.3e} voxels together at resolution {resolution}, over {limit:.3e} ({factor} times the whole scene's grid): their bounding boxes overlap many times; {advice}"
+    )]
+    PartsOverlap {
+        /// The voxels of the parts' grids, together.
+        voxels: f64,
+        /// The limit.
+        limit: f64,
+        /// The limit as a multiple of the scene's grid.
+        factor: u32,
+        /// The scene's resolution.
+        resolution: u32,
+        /// What would work.
+        advice: String,
+    },
+
     /// The template is too small for the voxel size to describe it.
     #[error(
         "the template's smallest radius is {radius_voxels:.2} voxels, below the {min_voxels} needed; {advice}"

@@ -9,9 +9,10 @@ use crate::descriptor::curvature::Surface;
 use crate::error::MemoryEstimate;
 use crate::error::{Error, Result};
 use crate::exec::Backend;
+use crate::math::Aabb;
 use crate::math::Vec3;
-use crate::mesh::TriMesh;
-use crate::voxel::{Grid, GridSpec, Solid, dilate, skin, voxelize};
+use crate::mesh::{TriMesh, connected_components, minimal_bounding_sphere};
+use crate::voxel::{Grid, GridSpec, PADDING, Solid, dilate, skin, voxelize};
 use std::sync::OnceLock;
 
 /// How to voxelize a scene.
@@ -93,6 +94,9 @@ impl Default for SceneOptions {
     }
 }
 
+/// A part's grid may always take this much for its padding.
+pub const PAD_FLOOR_BYTES: u64 = 4 << 20;
+
 /// A scene to search.
 pub struct Scene {
     mesh: TriMesh,
@@ -101,21 +105,130 @@ pub struct Scene {
     backend: Backend,
     memory_budget: u64,
     max_voxel_work: f64,
-    voxels: OnceLock<Voxels>,
+    parts: Vec<ScenePart>,
+    joined_parts: OnceLock<Vec<ScenePart>>,
     surface: OnceLock<(Surface, f64)>,
 }
 
-/// The voxelized scene.
-struct Voxels {
+/// How a search divides the scene into parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parts {
+    /// Each connected component alone: a template of one component.
+    Components,
+    /// Components whose bounding boxes overlap, joined: a template made of
+    /// several shells (a mug whose handle is a shell of its own) is found
+    /// with its shells together.
+    OverlappingBoxes,
+}
+
+/// One connected component of the scene's mesh: the voxel descriptors see
+/// a candidate's own part only, so that neighbours touching it or sitting
+/// in it do not hide it.
+#[derive(Clone, Debug)]
+pub struct ScenePart {
+    triangles: Vec<u32>,
+    radius: f64,
+    bounds: Aabb,
+}
+
+impl ScenePart {
+    /// The part of `mesh` made of `triangles`; `taken` marks the vertices
+    /// already counted for part `id`, so each counts once.
+    fn new(mesh: &TriMesh, triangles: Vec<u32>, id: u32, taken: &mut [u32]) -> ScenePart {
+        let mut vertices = Vec::new();
+        for &t in &triangles {
+            for v in mesh.triangles()[t as usize] {
+                if taken[v as usize] != id {
+                    taken[v as usize] = id;
+                    vertices.push(mesh.vertex(v));
+                }
+            }
+        }
+        ScenePart {
+            radius: minimal_bounding_sphere(&vertices).map_or(0.0, |s| s.radius),
+            bounds: Aabb::around(vertices).expect("a part has vertices"),
+            triangles,
+        }
+    }
+
+    /// The radius of the part's minimal bounding sphere.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// Its triangles in the scene's mesh.
+    pub fn triangles(&self) -> &[u32] {
+        &self.triangles
+    }
+
+    /// Its bounding box.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+/// A part's solid and skin voxels, built for one search.
+pub struct PartVoxels {
     solid: Solid,
     skin: Vec<[u16; 3]>,
     near_surface: Grid,
     voxelize_ms: f64,
 }
 
+impl PartVoxels {
+    /// Voxelizes `mesh` on `spec`: its solid, skin and the voxels near its
+    /// surface.
+    pub(crate) fn build(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> PartVoxels {
+        let start = now_ms();
+        let grid = voxelize(mesh, spec, backend);
+        let skin_grid = skin(&grid, backend);
+        let near_surface = dilate(&skin_grid, backend);
+        // Sized exactly: a messy part's skin can run to tens of millions of
+        // voxels, and doubling would take twice that.
+        let mut skin = Vec::with_capacity(skin_grid.count_ones() as usize);
+        skin.extend(skin_grid.iter_ones());
+        PartVoxels {
+            solid: Solid::new(grid),
+            skin,
+            near_surface,
+            voxelize_ms: now_ms() - start,
+        }
+    }
+
+    /// The solid with its count pyramid.
+    pub fn solid(&self) -> &Solid {
+        &self.solid
+    }
+
+    /// The solid bit grid.
+    pub fn grid(&self) -> &Grid {
+        self.solid.bits()
+    }
+
+    /// The candidate points: skin voxels in z, y, x order.
+    pub fn skin(&self) -> &[[u16; 3]] {
+        &self.skin
+    }
+
+    /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
+    pub fn near_surface(&self) -> &Grid {
+        &self.near_surface
+    }
+
+    /// How long voxelizing took, in milliseconds.
+    pub fn voxelize_ms(&self) -> f64 {
+        self.voxelize_ms
+    }
+
+    /// World position of candidate point `i`.
+    pub fn position(&self, i: u32) -> Vec3 {
+        self.solid.bits().spec().center(self.skin[i as usize])
+    }
+}
+
 impl Scene {
-    /// Prepares `mesh` for searching; checks now that its voxels fit the
-    /// memory budget, and voxelizes on first use.
+    /// Prepares `mesh` for searching: splits it into its connected parts and
+    /// checks now that the largest part's voxels fit the memory budget.
     pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
         check_voxel_work(
@@ -125,13 +238,22 @@ impl Scene {
             options.resolution,
             options.max_voxel_work,
         )?;
+        let parts = split_parts(&mesh);
         let budget = options.memory_budget;
         let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
         let fits = |spec: &GridSpec| {
+            let largest = parts
+                .iter()
+                .map(|p| {
+                    spec.crop(p.bounds, PADDING)
+                        .map_or(u64::MAX, |s| voxel_bytes(&s))
+                })
+                .max()
+                .unwrap_or_default();
             let mut estimate = MemoryEstimate::new();
             estimate
                 .add("the mesh", mesh_estimate)
-                .add("voxel grids and count pyramid", voxel_bytes(spec));
+                .add("the largest part's voxel grids and count pyramid", largest);
             estimate
         };
         fits(&spec).check(budget, || {
@@ -156,33 +278,87 @@ impl Scene {
             backend: options.backend,
             memory_budget: budget,
             max_voxel_work: options.max_voxel_work,
-            voxels: OnceLock::new(),
+            parts,
+            joined_parts: OnceLock::new(),
             surface: OnceLock::new(),
-        })
-    }
-
-    fn voxels(&self) -> &Voxels {
-        self.voxels.get_or_init(|| {
-            let start = now_ms();
-            let grid = voxelize(&self.mesh, &self.spec, self.backend);
-            let skin_grid = skin(&grid, self.backend);
-            let near_surface = dilate(&skin_grid, self.backend);
-            // Sized exactly: a messy scene's skin can run to tens of
-            // millions of voxels, and doubling would take twice that.
-            let mut skin = Vec::with_capacity(skin_grid.count_ones() as usize);
-            skin.extend(skin_grid.iter_ones());
-            Voxels {
-                solid: Solid::new(grid),
-                skin,
-                near_surface,
-                voxelize_ms: now_ms() - start,
-            }
         })
     }
 
     /// The mesh.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
+    }
+
+    /// The parts a search looks at one by one, in order of their first
+    /// triangle.
+    pub fn parts(&self, kind: Parts) -> &[ScenePart] {
+        match kind {
+            Parts::Components => &self.parts,
+            Parts::OverlappingBoxes => self
+                .joined_parts
+                .get_or_init(|| join_overlapping(&self.mesh, &self.parts)),
+        }
+    }
+
+    /// The connected component holding triangle `t`.
+    pub fn part_of_triangle(&self, t: usize) -> usize {
+        self.parts
+            .iter()
+            .position(|p| p.triangles.binary_search(&(t as u32)).is_ok())
+            .expect("every triangle is in a part")
+    }
+
+    /// Voxelizes `part` on its own for a template reaching `reach` voxels
+    /// from its centre, after checking that its grids fit the memory budget
+    /// beside `held` (what the search holds already).
+    pub fn voxelize_part(
+        &self,
+        part: &ScenePart,
+        reach: f64,
+        held: &MemoryEstimate,
+    ) -> Result<PartVoxels> {
+        let spec = self.part_spec(part, reach)?;
+        let mut estimate = held.clone();
+        estimate.add("a part's voxel grids and count pyramid", voxel_bytes(&spec));
+        estimate.check(self.memory_budget, || {
+            format!(
+                "a part of {} triangles needs {} x {} x {} voxels at resolution {}: lower the resolution, or raise the memory budget",
+                part.triangles.len(),
+                spec.dims[0],
+                spec.dims[1],
+                spec.dims[2],
+                self.resolution
+            )
+        })?;
+        Ok(PartVoxels::build(
+            &self.mesh.subset(&part.triangles),
+            &spec,
+            self.backend,
+        ))
+    }
+
+    /// The grid of `part`, padded so that the template's spheres and balls
+    /// around its surface (`reach` voxels) stay inside it: samples past a
+    /// grid's border take the readers' slow path, which made a search of
+    /// many small parts twice as slow. The padding may at most double the
+    /// part's memory (or take [`PAD_FLOOR_BYTES`]); past that it shrinks.
+    pub fn part_spec(&self, part: &ScenePart, reach: f64) -> Result<GridSpec> {
+        let tight = self.spec.crop(part.bounds, PADDING)?;
+        let cap = 2 * voxel_bytes(&tight) + PAD_FLOOR_BYTES;
+        let mut pad = if reach.is_finite() && reach > 0.0 {
+            reach.ceil().min(f64::from(u16::MAX)) as usize + 2
+        } else {
+            PADDING
+        };
+        while pad > PADDING {
+            if let Ok(spec) = self.spec.crop(part.bounds, pad)
+                && voxel_bytes(&spec) <= cap
+            {
+                return Ok(spec);
+            }
+            pad /= 2;
+        }
+        Ok(tight)
     }
 
     /// The welded surface with its adjacency (built on first use).
@@ -195,26 +371,6 @@ impl Scene {
                 (surface, now_ms() - start)
             })
             .0
-    }
-
-    /// The solid bit grid.
-    pub fn grid(&self) -> &Grid {
-        self.solid().bits()
-    }
-
-    /// The solid with its count pyramid.
-    pub fn solid(&self) -> &Solid {
-        &self.voxels().solid
-    }
-
-    /// The candidate points: skin voxels in z, y, x order.
-    pub fn skin(&self) -> &[[u16; 3]] {
-        &self.voxels().skin
-    }
-
-    /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
-    pub fn near_surface(&self) -> &Grid {
-        &self.voxels().near_surface
     }
 
     /// The memory budget in bytes for the scene and its searches.
@@ -233,33 +389,25 @@ impl Scene {
         self.memory_budget = bytes;
     }
 
-    /// The estimate of what the scene has built so far: its mesh, and its
-    /// voxels or welded surface once built.
+    /// The estimate of what the scene holds between searches: its mesh, and
+    /// its welded surface once built.
     pub fn built_bytes(&self) -> u64 {
+        self.mesh_estimate().total()
+            + if self.surface.get().is_some() {
+                surface_bytes(self.mesh.triangles().len())
+            } else {
+                0
+            }
+    }
+
+    /// The scene's mesh as a memory estimate (a search adds its own
+    /// structures to it).
+    pub(crate) fn mesh_estimate(&self) -> MemoryEstimate {
         let mut estimate = MemoryEstimate::new();
         estimate.add(
             "the mesh",
             mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len()),
         );
-        if self.is_voxelized() {
-            estimate.add("voxel grids and count pyramid", voxel_bytes(&self.spec));
-        }
-        if self.surface.get().is_some() {
-            estimate.add("welded surface", surface_bytes(self.mesh.triangles().len()));
-        }
-        estimate.total()
-    }
-
-    /// What the scene holds or will hold for voxel descriptors: its mesh,
-    /// grids and pyramid (a search adds its own structures to this).
-    pub(crate) fn voxel_estimate(&self) -> MemoryEstimate {
-        let mut estimate = MemoryEstimate::new();
-        estimate
-            .add(
-                "the mesh",
-                mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len()),
-            )
-            .add("voxel grids and count pyramid", voxel_bytes(&self.spec));
         estimate
     }
 
@@ -273,14 +421,9 @@ impl Scene {
         self.spec.voxel_size
     }
 
-    /// Whether the scene has been voxelized yet.
-    pub fn is_voxelized(&self) -> bool {
-        self.voxels.get().is_some()
-    }
-
-    /// How long voxelization took, in milliseconds (0 if not voxelized).
-    pub fn voxelize_ms(&self) -> f64 {
-        self.voxels.get().map_or(0.0, |v| v.voxelize_ms)
+    /// The grid of the whole scene: the lattice every part's grid is cut from.
+    pub fn spec(&self) -> &GridSpec {
+        &self.spec
     }
 
     /// How long building the welded surface took, in milliseconds (0 if
@@ -288,11 +431,61 @@ impl Scene {
     pub fn surface_ms(&self) -> f64 {
         self.surface.get().map_or(0.0, |s| s.1)
     }
+}
 
-    /// World position of candidate point `i`.
-    pub fn position(&self, i: u32) -> Vec3 {
-        self.spec.center(self.skin()[i as usize])
+/// The connected parts of `mesh` with their bounds and bounding spheres.
+fn split_parts(mesh: &TriMesh) -> Vec<ScenePart> {
+    let mut taken = vec![u32::MAX; mesh.positions().len()];
+    connected_components(mesh)
+        .into_iter()
+        .enumerate()
+        .map(|(i, triangles)| ScenePart::new(mesh, triangles, i as u32, &mut taken))
+        .collect()
+}
+
+/// Joins the parts whose bounding boxes overlap, transitively (a sweep
+/// along x, then union-find).
+fn join_overlapping(mesh: &TriMesh, parts: &[ScenePart]) -> Vec<ScenePart> {
+    let mut group: Vec<usize> = (0..parts.len()).collect();
+    fn root(group: &mut [usize], mut i: usize) -> usize {
+        while group[i] != i {
+            group[i] = group[group[i]];
+            i = group[i];
+        }
+        i
     }
+    let mut by_x: Vec<usize> = (0..parts.len()).collect();
+    by_x.sort_by(|&a, &b| parts[a].bounds.min.x.total_cmp(&parts[b].bounds.min.x));
+    for (k, &a) in by_x.iter().enumerate() {
+        let boxed = parts[a].bounds;
+        for &b in &by_x[k + 1..] {
+            let other = parts[b].bounds;
+            if other.min.x > boxed.max.x {
+                break;
+            }
+            let overlap =
+                (0..3).all(|i| other.min[i] <= boxed.max[i] && boxed.min[i] <= other.max[i]);
+            if overlap {
+                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                group[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); parts.len()];
+    for i in 0..parts.len() {
+        let r = root(&mut group, i);
+        members[r].extend_from_slice(&parts[i].triangles);
+    }
+    let mut taken = vec![u32::MAX; mesh.positions().len()];
+    members
+        .into_iter()
+        .filter(|m| !m.is_empty())
+        .enumerate()
+        .map(|(i, mut triangles)| {
+            triangles.sort_unstable();
+            ScenePart::new(mesh, triangles, i as u32, &mut taken)
+        })
+        .collect()
 }
 
 impl std::fmt::Debug for Scene {
@@ -301,7 +494,7 @@ impl std::fmt::Debug for Scene {
             .field("triangles", &self.mesh.triangles().len())
             .field("resolution", &self.resolution)
             .field("voxel_size", &self.voxel_size())
-            .field("voxelized", &self.voxels.get().is_some())
+            .field("parts", &self.parts.len())
             .finish()
     }
 }

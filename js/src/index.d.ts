@@ -142,11 +142,12 @@ declare abstract class Handle {
 
 export class Scene extends Handle {
   private constructor();
-  /** Parses and voxelizes a scene; throws an Error with a readable message on bad input. */
+  /** Parses a scene and splits it into its parts; throws an Error with a readable message on bad input. */
   static fromBytes(bytes: MeshBytes, options?: SceneOptions): Scene;
   readonly resolution: number;
   readonly voxelSize: number;
-  readonly skinVoxels: number;
+  /** Connected parts: the voxel search describes each point by its own part. */
+  readonly parts: number;
   readonly triangles: number;
   /** Finds every occurrence of `template`; throws when cancelled or on bad options. */
   match(template: Template, options?: MatchOptions, onLayer?: LayerCallback): MatchReport;

@@ -189,8 +189,8 @@ export class Scene extends Handle {
   get voxelSize() {
     return this.inner.voxelSize;
   }
-  get skinVoxels() {
-    return this.inner.skinVoxels;
+  get parts() {
+    return this.inner.parts;
   }
   get triangles() {
     return this.inner.triangles;

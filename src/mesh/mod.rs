@@ -10,12 +10,14 @@
 
 mod bounding_sphere;
 mod closest_point;
+mod components;
 pub mod io;
 pub mod shapes;
 mod weld;
 
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
+pub use components::connected_components;
 pub use weld::weld_vertices;
 
 use crate::error::{Error, Result};
@@ -213,6 +215,40 @@ impl TriMesh {
             .map(|i| self.triangles[i])
             .collect();
         TriMesh::new(self.positions.clone(), triangles)
+    }
+
+    /// The mesh of `triangles` alone (a component), with only the vertices
+    /// they use.
+    pub fn subset(&self, triangles: &[u32]) -> TriMesh {
+        let mut new_index = vec![u32::MAX; self.positions.len()];
+        let mut positions = Vec::new();
+        let triangles = triangles
+            .iter()
+            .map(|&t| {
+                self.triangles[t as usize].map(|i| {
+                    let slot = &mut new_index[i as usize];
+                    if *slot == u32::MAX {
+                        *slot = positions.len() as u32;
+                        positions.push(self.positions[i as usize]);
+                    }
+                    *slot
+                })
+            })
+            .collect::<Vec<_>>();
+        let part = Part {
+            first_vertex: 0,
+            vertex_count: positions.len() as u32,
+            first_triangle: 0,
+            triangle_count: triangles.len() as u32,
+            source: 0,
+        };
+        // The triangles were validated with these positions.
+        TriMesh {
+            positions,
+            triangles,
+            parts: vec![part],
+            degenerate_dropped: 0,
+        }
     }
 
     /// Appends another mesh (used to merge the primitives of a scene).

@@ -1,85 +1,106 @@
-//! The voxel pipeline: the scene's solid and skin voxels, a template with
-//! its own grid or a selection of the scene's, the volume and harmonics
-//! stages, then verification by placement and grouping.
+//! The voxel pipeline, part by part: each scene part's solid and skin
+//! voxels, a template with its own grid or a selection of a part's, the
+//! volume and harmonics stages, then verification by placement and
+//! grouping.
 
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
-use crate::budget::{ball_bytes, candidate_bytes, voxel_bytes};
-use crate::cascade::{Observer, Stage, run_cascade};
+use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
+use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
-use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
-use crate::error::Result;
-use crate::instances::{Verified, group, local_bests, placement_transform};
-use crate::scene::Scene;
+use crate::error::{Error, MemoryEstimate, Result};
+use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
+use crate::scene::{Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
-use crate::verify::{Verifier, moment_level};
-use crate::voxel::level_for_radius;
+use crate::verify::Verifier;
 
-/// Searches `scene`'s skin voxels for `source` with the voxel descriptors.
+/// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
+/// part by part: each connected part of the scene large enough to hold a
+/// copy is voxelized on its own, so that what touches it or sits in it does
+/// not hide it.
 pub(super) fn search_voxels(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
-    let build_template = || {
-        let start = now_ms();
-        let template = VoxelTemplate::new(source, scene, options.layers, options.backend);
-        (template, now_ms() - start)
-    };
-    let fresh = !scene.is_voxelized();
     let t0 = now_ms();
-    let (template, template_ms) = match source {
-        // A separate model has its own grid, sharing only the voxel size:
-        // it is built beside the scene's, and each fills the other's serial
-        // parts (finding shells, for one).
-        TemplateSource::Model(_) => options.backend.join(|| scene.solid(), build_template).1,
-        // A selection reads the scene's voxels.
-        TemplateSource::Selection { .. } => {
-            scene.solid();
-            build_template()
-        }
-    };
-    let joined = now_ms();
-    // The time voxelization and the template shared, counted once in the
-    // total.
-    let shared = if fresh {
-        (scene.voxelize_ms() + template_ms - (joined - t0)).max(0.0)
-    } else {
-        0.0
-    };
-    let template = template?;
+    let template = VoxelTemplate::new(source, scene, options.layers, options.backend)?;
     let radii = template.radii();
-    check_voxel_search(scene, &template)?;
-    let (tsolid, tvoxel, backend) = (template.solid(scene), template.voxel(), options.backend);
+    let (tvoxels, tvoxel, backend) = (template.voxels(), template.voxel(), options.backend);
+    let voxel = scene.voxel_size();
+    let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
+    let held = search_estimate(scene, &template, &radii_voxels);
+    held.check(scene.memory_budget(), || {
+        too_much_for_template(&radii_voxels, scene)
+    })?;
     let transform = SphericalTransform::new();
     // The balls' tables are built once: read at the template's one point,
-    // then bound to the scene's layout.
-    let balls = VolumeDescriptor::unbound_balls(radii, scene.voxel_size(), backend);
-    let template_volume = VolumeDescriptor::describe_with(tsolid, tvoxel, &balls, backend);
-    let volume = VolumeDescriptor::with_balls(
-        scene.solid(),
-        scene.skin(),
-        radii,
-        balls
-            .into_iter()
-            .map(|b| b.bind(scene.solid(), backend))
-            .collect(),
-        template_volume,
-        options.volume_threshold,
-    )
-    .with_clutter(options.clutter);
-    let harmonics = match options.descriptor {
-        DescriptorKind::Volume => None,
-        _ => Some(
+    // then bound to each part's layout.
+    let balls = VolumeDescriptor::unbound_balls(radii, voxel, backend);
+    let template_volume = VolumeDescriptor::describe_with(tvoxels.solid(), tvoxel, &balls, backend);
+    let template_harmonics = (options.descriptor != DescriptorKind::Volume).then(|| {
+        HarmonicsDescriptor::describe(tvoxels.solid(), tvoxel, radii, &transform, backend)
+    });
+    let verifier = Verifier::new(
+        tvoxels.solid(),
+        tvoxels.skin(),
+        tvoxel,
+        template.center_offset(),
+        &radii_voxels,
+        options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
+        backend,
+    );
+    let reach = template.radius() / voxel;
+    let parts: Vec<(usize, &ScenePart)> = scene
+        .parts(template.parts())
+        .iter()
+        .enumerate()
+        .filter(|(_, part)| part.radius() >= template.min_part_radius())
+        .collect();
+    check_part_volume(scene, &parts, reach)?;
+    let template_ms = now_ms() - t0;
+    let mut found = Found::default();
+    for (i, part) in parts {
+        let fresh;
+        let voxels = if template.scene_part() == Some(i) {
+            tvoxels
+        } else {
+            fresh = scene.voxelize_part(part, reach, &held)?;
+            found.timings.voxelize += fresh.voxelize_ms();
+            &fresh
+        };
+        let t1 = now_ms();
+        let mut estimate = held.clone();
+        estimate.add("candidate state", candidate_bytes(voxels.skin().len()));
+        estimate.check(scene.memory_budget(), || {
+            format!(
+                "a part has {} candidate points (skin voxels) at resolution {}: lower the resolution (they fall with its square), or raise the memory budget",
+                voxels.skin().len(),
+                scene.resolution()
+            )
+        })?;
+        let volume = VolumeDescriptor::with_balls(
+            voxels.solid(),
+            voxels.skin(),
+            radii,
+            balls
+                .iter()
+                .map(|b| b.clone().bind(voxels.solid(), backend))
+                .collect(),
+            template_volume.clone(),
+            options.volume_threshold,
+        )
+        .with_clutter(options.clutter);
+        let harmonics = template_harmonics.as_ref().map(|signatures| {
             HarmonicsDescriptor::new(
-                scene.solid(),
-                scene.skin(),
+                voxels.solid(),
+                voxels.skin(),
                 &transform,
                 radii,
-                HarmonicsDescriptor::describe(tsolid, tvoxel, radii, &transform, backend),
+                signatures.clone(),
                 options.harmonics_threshold,
                 backend,
             )
@@ -87,114 +108,151 @@ pub(super) fn search_voxels(
                 policy: options.clutter,
                 balls: volume.balls(),
                 template: volume.template(),
-            }),
-        ),
-    };
-    let mut stages: Vec<&dyn Stage> = Vec::new();
-    if options.descriptor != DescriptorKind::Harmonics {
-        stages.push(&volume);
-    }
-    if let Some(h) = &harmonics {
-        stages.push(h);
-    }
-    let t1 = now_ms();
-    let candidates = (0..scene.skin().len() as u32).collect();
-    let (survivors, stats) = run_cascade(&stages, candidates, options.backend, observer)?;
-    let t2 = now_ms();
-    let position = |p| scene.position(p);
-    let bests = local_bests(&survivors, position, radii[0]);
-    let voxel = scene.voxel_size();
-    let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
-    let verifier = Verifier::new(
-        tsolid,
-        template.skin(scene),
-        tvoxel,
-        template.center_offset(scene),
-        &radii_voxels,
-        options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
-        backend,
-    );
-    let verified: Vec<Verified> = backend
-        .map_each(bests.len(), |i| {
-            let v = scene.skin()[bests[i].point as usize];
-            let placement = verifier.check(scene.solid(), scene.near_surface(), v);
-            let position = scene.position(bests[i].point) + placement.offset * voxel;
-            Verified {
-                survivor: bests[i],
-                score: placement.score(),
-                position,
-                transform: Some(placement_transform(
-                    &placement.rotation,
-                    template.center(),
+            })
+        });
+        let mut stages: Vec<&dyn Stage> = Vec::new();
+        if options.descriptor != DescriptorKind::Harmonics {
+            stages.push(&volume);
+        }
+        if let Some(h) = &harmonics {
+            stages.push(h);
+        }
+        let candidates = (0..voxels.skin().len() as u32).collect();
+        let (survivors, stats) = run_cascade(&stages, candidates, backend, observer)?;
+        let t2 = now_ms();
+        let position = |p| voxels.position(p);
+        let bests = local_bests(&survivors, position, radii[0]);
+        let verified: Vec<Verified> = backend
+            .map_each(bests.len(), |b| {
+                let v = voxels.skin()[bests[b].point as usize];
+                let placement = verifier.check(voxels.solid(), voxels.near_surface(), v);
+                let position = voxels.position(bests[b].point) + placement.offset * voxel;
+                Verified {
+                    survivor: bests[b],
+                    score: placement.score(),
                     position,
-                )),
-            }
-        })
-        .into_iter()
-        .filter(|v| v.score >= options.verify_threshold)
-        .collect();
-    let instances = group(
-        &verified,
-        &survivors,
-        position,
-        options.group_radius * template.radius(),
-    );
-    let timings = Timings {
-        shared,
-        ..Timings::of_search(
-            scene.voxelize_ms(),
-            0.0,
-            [joined - template_ms, t1, t2, now_ms()],
-        )
-    };
+                    transform: Some(placement_transform(
+                        &placement.rotation,
+                        template.center(),
+                        position,
+                    )),
+                }
+            })
+            .into_iter()
+            .filter(|v| v.score >= options.verify_threshold)
+            .collect();
+        found.instances.extend(group(
+            &verified,
+            &survivors,
+            position,
+            options.group_radius * template.radius(),
+        ));
+        found.add_stats(stats);
+        found.skin_voxels += voxels.skin().len();
+        found.timings.match_ += t2 - t1;
+        found.timings.group += now_ms() - t2;
+    }
+    // Best first over all parts, as within one.
+    found.instances.sort_by(|a, b| {
+        b.score
+            .unwrap_or(0.0)
+            .total_cmp(&a.score.unwrap_or(0.0))
+            .then(a.distance.total_cmp(&b.distance))
+    });
     Ok(MatchReport {
         template: TemplateInfo::of(template.center(), template.radius()),
-        instances,
-        stages: stats,
+        instances: found.instances,
+        stages: found.stages,
         grid: Some(GridInfo {
             resolution: scene.resolution(),
-            voxel_size: scene.voxel_size(),
-            skin_voxels: scene.skin().len(),
+            voxel_size: voxel,
+            skin_voxels: found.skin_voxels,
         }),
         surface: None,
-        timings,
+        timings: Timings {
+            template: template_ms,
+            ..found.timings
+        },
     })
 }
 
-/// Checks, before any ball table is built, that a voxel search fits the
-/// scene's memory budget: the scene's grids, a model template's own, the
-/// run tables of the volume and verification balls and the cascade's state.
-fn check_voxel_search(scene: &Scene, template: &VoxelTemplate) -> Result<()> {
-    let voxel = scene.voxel_size();
-    let mut estimate = scene.voxel_estimate();
-    let tsolid = template.solid(scene);
-    if !std::ptr::eq(tsolid, scene.solid()) {
-        estimate.add(
-            "the template's voxel grids",
-            voxel_bytes(tsolid.bits().spec()),
-        );
-    }
-    let radii: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
-    for &r in &radii {
-        estimate.add(
-            "ball tables",
-            ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)),
-        );
-        estimate.add("ball tables", ball_bytes(r, moment_level(r)));
-    }
-    estimate.add("candidate state", candidate_bytes(scene.skin().len()));
-    estimate.check(scene.memory_budget(), || {
-        let outer = radii.last().copied().unwrap_or_default();
-        match estimate.largest() {
-            Some(("candidate state", _)) => format!(
-                "the scene has {} candidate points (skin voxels) at resolution {}: lower the resolution (they fall with its square), or raise the memory budget",
-                scene.skin().len(),
-                scene.resolution()
-            ),
-            _ => format!(
-                "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
-                scene.resolution()
-            ),
+/// What the parts searched so far have found.
+#[derive(Default)]
+struct Found {
+    instances: Vec<Instance>,
+    stages: Vec<LayerStats>,
+    skin_voxels: usize,
+    timings: Timings,
+}
+
+impl Found {
+    /// Adds a part's layer statistics to those of the same stage and layer.
+    fn add_stats(&mut self, stats: Vec<LayerStats>) {
+        for s in stats {
+            match self
+                .stages
+                .iter_mut()
+                .find(|t| t.descriptor == s.descriptor && t.layer == s.layer)
+            {
+                Some(t) => {
+                    t.candidates += s.candidates;
+                    t.survivors += s.survivors;
+                    t.ms += s.ms;
+                }
+                None => self.stages.push(s),
+            }
         }
+    }
+}
+
+/// What a voxel search holds besides the part it searches: the scene's
+/// mesh, the template's voxels and the run tables of the volume and
+/// verification balls.
+fn search_estimate(scene: &Scene, template: &VoxelTemplate, radii: &[f64]) -> MemoryEstimate {
+    let mut estimate = scene.mesh_estimate();
+    estimate.add(
+        "the template's voxel grids",
+        voxel_bytes(template.voxels().grid().spec()),
+    );
+    add_ball_tables(&mut estimate, radii);
+    estimate
+}
+
+/// The parts' grids may hold this many times the voxels of the whole
+/// scene's: apart, parts fill less than their common box, and padding and
+/// nesting add some; a soup of large crossing triangles, each a part,
+/// would take thousands of times as long as the scene.
+const MAX_PART_VOLUME_FACTOR: u32 = 8;
+
+/// Fails when voxelizing `parts` one by one would fill far more voxels than
+/// the whole scene holds.
+fn check_part_volume(scene: &Scene, parts: &[(usize, &ScenePart)], reach: f64) -> Result<()> {
+    let voxels: f64 = parts
+        .iter()
+        .map(|(_, part)| {
+            scene
+                .part_spec(part, reach)
+                .map_or(f64::INFINITY, |s| s.voxel_count() as f64)
+        })
+        .sum();
+    let limit = f64::from(MAX_PART_VOLUME_FACTOR) * scene.spec().voxel_count() as f64;
+    if voxels <= limit {
+        return Ok(());
+    }
+    Err(Error::PartsOverlap {
+        voxels,
+        limit,
+        factor: MAX_PART_VOLUME_FACTOR,
+        resolution: scene.resolution(),
+        advice: "weld the mesh so that a part's triangles share vertices, or search a region of the scene".into(),
     })
+}
+
+/// The advice when the template's own structures pass the budget.
+fn too_much_for_template(radii: &[f64], scene: &Scene) -> String {
+    let outer = radii.last().copied().unwrap_or_default();
+    format!(
+        "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
+        scene.resolution()
+    )
 }

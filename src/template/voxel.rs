@@ -1,36 +1,46 @@
 //! A template for the voxel descriptors: c_T and the radii, and the grid
-//! its descriptors are read from (its own for a model, the scene's for a
-//! selection).
+//! its descriptors are read from (its own anchor part's for a model, the
+//! selected scene part's for a selection).
 
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
-use crate::budget::{mesh_bytes, voxel_bytes};
+use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
-use crate::math::Vec3;
-use crate::mesh::minimal_bounding_sphere;
-use crate::scene::{Scene, check_voxel_work, nearest_voxel};
-use crate::voxel::{GridSpec, Solid, skin, voxelize};
+use crate::math::{Vec3, from_f32};
+use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
+use crate::scene::{PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
+use crate::voxel::GridSpec;
 
 /// A template prepared against a scene.
 pub struct VoxelTemplate {
     center: Vec3,
     radius: f64,
     radii: Vec<f64>,
-    /// A separate model's own voxels; a selection reads the scene's.
-    own: Option<OwnVoxels>,
+    /// A model's anchor part voxelized on its own, or the scene part a
+    /// selection was made on.
+    voxels: PartVoxels,
+    /// For a selection, the scene part [`VoxelTemplate::voxels`] is.
+    scene_part: Option<usize>,
+    /// How the scene is divided for it.
+    parts: Parts,
+    /// No copy can lie on a part whose bounding sphere is smaller.
+    min_part_radius: f64,
     voxel: [u16; 3],
 }
 
-/// A template model's solid and its skin voxels (z, y, x order).
-struct OwnVoxels {
-    solid: Solid,
-    skin: Vec<[u16; 3]>,
-}
+/// A copy's part may be this much smaller than the template's (remeshing,
+/// noise and bending shrink a bounding sphere a little); anything smaller
+/// misses material the template has, which no rule excuses.
+const PART_RADIUS_SLACK: f64 = 0.8;
 
 impl VoxelTemplate {
     /// Prepares `source` for searching `scene` with `layers` radii.
+    ///
+    /// Scene points are described by their own part: a connected
+    /// component for a template of one ([`Parts`]); for one of several
+    /// shells, the components whose boxes overlap.
     pub fn new(
         source: &TemplateSource,
         scene: &Scene,
@@ -39,32 +49,28 @@ impl VoxelTemplate {
     ) -> Result<VoxelTemplate> {
         check_layers(layers)?;
         let voxel_size = scene.voxel_size();
-        let (center, radius, own, voxel) = match source {
-            TemplateSource::Model(mesh) => {
-                // Each vertex once, whatever the number of triangles using it.
-                let mut is_used = vec![false; mesh.positions().len()];
-                for &i in mesh.triangles().iter().flatten() {
-                    is_used[i as usize] = true;
-                }
-                let used: Vec<Vec3> = (0..is_used.len())
-                    .filter(|&i| is_used[i])
-                    .map(|i| mesh.vertex(i as u32))
-                    .collect();
-                let sphere = minimal_bounding_sphere(&used).expect("a TriMesh has triangles");
+        let (center, radius, voxels, scene_part, parts, min_part_radius, voxel) = match source {
+            TemplateSource::Model(model) => {
+                let sphere = bounding_sphere(model);
                 check_extent(2.0 * sphere.radius, scene, false)?;
-                let spec = GridSpec::around(mesh.bounds(), voxel_size)?;
+                let parts = if connected_components(model).len() == 1 {
+                    Parts::Components
+                } else {
+                    Parts::OverlappingBoxes
+                };
+                let spec = GridSpec::around(model.bounds(), voxel_size)?;
                 check_voxel_work(
                     "template",
-                    mesh,
+                    model,
                     voxel_size,
                     scene.resolution(),
                     scene.max_voxel_work(),
                 )?;
-                let mut estimate = scene.voxel_estimate();
+                let mut estimate = scene.mesh_estimate();
                 estimate
                     .add(
                         "the template's mesh",
-                        mesh_bytes(mesh.positions().len(), mesh.triangles().len()),
+                        mesh_bytes(model.positions().len(), model.triangles().len()),
                     )
                     .add("the template's voxel grids", voxel_bytes(&spec));
                 estimate.check(scene.memory_budget(), || {
@@ -73,28 +79,69 @@ impl VoxelTemplate {
                         scene.resolution()
                     )
                 })?;
-                let grid = voxelize(mesh, &spec, backend);
-                let skin: Vec<[u16; 3]> = skin(&grid, backend).iter_ones().collect();
+                let voxels = PartVoxels::build(model, &spec, backend);
                 // The surface of the template is the boundary of its solid:
                 // with overlapping shells, the nearest point of a mesh may be
                 // buried inside another shell. So: the nearest skin voxel,
                 // then the mesh point nearest to it.
-                let voxel =
-                    nearest_voxel(&spec, &skin, sphere.center).expect("a voxelized mesh has skin");
-                let center = mesh.closest_point(spec.center(voxel)).point;
-                let radius = used.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
-                let own = OwnVoxels {
-                    solid: Solid::new(grid),
-                    skin,
-                };
-                (center, radius, Some(own), voxel)
+                let voxel = nearest_voxel(&spec, voxels.skin(), sphere.center)
+                    .expect("a voxelized mesh has skin");
+                let center = model.closest_point(spec.center(voxel)).point;
+                let radius = model
+                    .positions()
+                    .iter()
+                    .map(|&p| from_f32(p).distance(center))
+                    .fold(0.0, f64::max);
+                let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
+                (center, radius, voxels, None, parts, min_part_radius, voxel)
             }
             &TemplateSource::Selection { center, radius } => {
                 let snapped = snap_selection(scene, center, radius)?;
                 check_extent(radius, scene, true)?;
-                let voxel = nearest_voxel(scene.grid().spec(), scene.skin(), snapped)
-                    .expect("a scene has skin");
-                (snapped, radius, None, voxel)
+                let nearest = scene.mesh().closest_point(snapped);
+                let part = scene.part_of_triangle(nearest.triangle);
+                // The search's ball tables first: they grow faster with the
+                // radius than the part's grid.
+                let mut held = scene.mesh_estimate();
+                let radii_voxels: Vec<f64> = evenly_spaced(radius, layers)
+                    .iter()
+                    .map(|r| r / voxel_size)
+                    .collect();
+                add_ball_tables(&mut held, &radii_voxels);
+                held.check(scene.memory_budget(), || {
+                    format!(
+                        "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
+                        radius / voxel_size,
+                        scene.resolution()
+                    )
+                })?;
+                let voxels = scene.voxelize_part(
+                    &scene.parts(Parts::Components)[part],
+                    radius / voxel_size,
+                    &held,
+                )?;
+                let voxel = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
+                    .expect("a part has skin");
+                // The selected material holds c_T and every selected vertex,
+                // so its bounding sphere is at least half their distance.
+                let mesh = scene.mesh();
+                let reach = scene.parts(Parts::Components)[part]
+                    .triangles()
+                    .iter()
+                    .flat_map(|&t| mesh.corners(t as usize))
+                    .map(|p| p.distance(snapped))
+                    .filter(|&d| d <= radius)
+                    .fold(0.0, f64::max);
+                let min_part_radius = PART_RADIUS_SLACK * reach / 2.0;
+                (
+                    snapped,
+                    radius,
+                    voxels,
+                    Some(part),
+                    Parts::Components,
+                    min_part_radius,
+                    voxel,
+                )
             }
         };
         let first = radius / layers as f64;
@@ -105,7 +152,10 @@ impl VoxelTemplate {
             center,
             radius,
             radii: evenly_spaced(radius, layers),
-            own,
+            voxels,
+            scene_part,
+            parts,
+            min_part_radius,
             voxel,
         })
     }
@@ -125,14 +175,26 @@ impl VoxelTemplate {
         &self.radii
     }
 
-    /// The solid the template's descriptors are read from.
-    pub fn solid<'a>(&'a self, scene: &'a Scene) -> &'a Solid {
-        self.own.as_ref().map_or(scene.solid(), |own| &own.solid)
+    /// The voxels the template's descriptors are read from.
+    pub fn voxels(&self) -> &PartVoxels {
+        &self.voxels
     }
 
-    /// The skin voxels of [`VoxelTemplate::solid`].
-    pub fn skin<'a>(&'a self, scene: &'a Scene) -> &'a [[u16; 3]] {
-        self.own.as_ref().map_or(scene.skin(), |own| &own.skin)
+    /// For a selection, the scene part it was made on (whose voxels
+    /// [`VoxelTemplate::voxels`] are).
+    pub fn scene_part(&self) -> Option<usize> {
+        self.scene_part
+    }
+
+    /// How the scene is divided into parts for this template.
+    pub fn parts(&self) -> Parts {
+        self.parts
+    }
+
+    /// Scene parts whose bounding sphere is smaller than this cannot hold a
+    /// copy.
+    pub fn min_part_radius(&self) -> f64 {
+        self.min_part_radius
     }
 
     /// The voxel the template's descriptors are computed at.
@@ -141,10 +203,24 @@ impl VoxelTemplate {
     }
 
     /// c_T relative to the centre of [`VoxelTemplate::voxel`], in voxels.
-    pub fn center_offset(&self, scene: &'_ Scene) -> Vec3 {
-        let spec = self.solid(scene).bits().spec();
+    pub fn center_offset(&self) -> Vec3 {
+        let spec = self.voxels.grid().spec();
         (self.center - spec.center(self.voxel)) * (1.0 / spec.voxel_size)
     }
+}
+
+/// The minimal bounding sphere of the vertices `mesh`'s triangles use.
+fn bounding_sphere(mesh: &TriMesh) -> Sphere {
+    // Each vertex once, whatever the number of triangles using it.
+    let mut is_used = vec![false; mesh.positions().len()];
+    for &i in mesh.triangles().iter().flatten() {
+        is_used[i as usize] = true;
+    }
+    let used: Vec<Vec3> = (0..is_used.len())
+        .filter(|&i| is_used[i])
+        .map(|i| mesh.vertex(i as u32))
+        .collect();
+    minimal_bounding_sphere(&used).expect("a TriMesh has triangles")
 }
 
 /// The error for a first radius of `radius_voxels` voxels at `resolution`,

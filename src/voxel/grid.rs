@@ -70,6 +70,33 @@ impl GridSpec {
         })
     }
 
+    /// The grid on this one's lattice that holds `bounds` with `pad` empty
+    /// voxels on every side (at least [`PADDING`]); it may reach past this
+    /// grid. A part's voxels are then those of the whole, and balls around
+    /// its surface stay inside its grid. Fails like [`GridSpec::around`].
+    pub fn crop(&self, bounds: Aabb, pad: usize) -> Result<GridSpec> {
+        let low = self.to_grid(bounds.min);
+        let high = self.to_grid(bounds.max);
+        let pad = pad.max(PADDING) as f64;
+        let first = [0, 1, 2].map(|a| low[a].floor() - pad);
+        let sides = [0, 1, 2].map(|a| high[a].floor() + pad - first[a] + 1.0);
+        if !sides.iter().all(|s| (1.0..=u16::MAX as f64).contains(s)) {
+            return Err(Error::GridTooLarge {
+                dims: sides.map(|s| s as u64),
+                advice: format!(
+                    "a part needs more than {} voxels along a side at voxels {:e} wide: lower the resolution",
+                    u16::MAX,
+                    self.voxel_size
+                ),
+            });
+        }
+        Ok(GridSpec {
+            origin: self.origin + Vec3::new(first[0], first[1], first[2]) * self.voxel_size,
+            voxel_size: self.voxel_size,
+            dims: sides.map(|s| s as usize),
+        })
+    }
+
     /// Number of voxels.
     pub fn voxel_count(&self) -> u64 {
         self.dims.iter().map(|&d| d as u64).product()

@@ -14,7 +14,7 @@ mod surface;
 
 pub use ball::Ball;
 pub use fill::fill_solid;
-pub use grid::{Grid, GridSpec};
+pub use grid::{Grid, GridSpec, PADDING};
 pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};
 pub use skin::{dilate, skin};
 pub use surface::voxelize_surface;

@@ -26,7 +26,7 @@ use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, Format};
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_within};
-use crate::scene::{Scene, SceneOptions};
+use crate::scene::{Parts, Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
 
@@ -155,7 +155,7 @@ fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), Js
     Ok((mesh, now_ms() - start))
 }
 
-/// A voxelized scene, ready to be searched any number of times.
+/// A scene split into its parts, ready to be searched any number of times.
 #[wasm_bindgen(js_name = Scene)]
 #[derive(Debug)]
 pub struct SceneHandle {
@@ -193,10 +193,11 @@ impl SceneHandle {
         self.scene.voxel_size()
     }
 
-    /// Candidate points (skin voxels).
-    #[wasm_bindgen(getter, js_name = skinVoxels)]
-    pub fn skin_voxels(&self) -> usize {
-        self.scene.skin().len()
+    /// Connected parts of the scene's mesh: the voxel search looks at each
+    /// alone.
+    #[wasm_bindgen(getter)]
+    pub fn parts(&self) -> usize {
+        self.scene.parts(Parts::Components).len()
     }
 
     /// Triangles of the scene's mesh.

@@ -93,6 +93,11 @@ pub fn describe_sphere(
 /// Candidates sampled to choose the order of the spheres.
 pub const ORDER_SAMPLE: usize = 64;
 
+/// Shorter lists keep the default lead: the sample's two spheres per point
+/// would cost more than the better lead can save on so few (a scene part
+/// often has only a few hundred candidates left).
+pub const ORDER_MIN_CANDIDATES: usize = 16 * ORDER_SAMPLE;
+
 /// The harmonics stage of the cascade: rejects a point once the L2 distance
 /// between its signatures and the template's, over the spheres so far, passes
 /// the threshold.
@@ -228,20 +233,21 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
             self.clean_layers.min(self.spheres.len()),
             self.spheres.len(),
         );
-        let excusable_first = (1..k).contains(&clean) && {
-            let sample: Vec<u32> = candidates
-                .iter()
-                .step_by((candidates.len() / ORDER_SAMPLE).max(1))
-                .copied()
-                .collect();
-            let passes = backend.map(sample.len(), |i| {
-                let p = sample[i];
-                let pass = |layer| self.extend(p, layer, &mut self.start(p)) <= self.threshold;
-                [pass(clean - 1), pass(clean)]
-            });
-            let count = |lead: usize| passes.iter().filter(|p| p[lead]).count();
-            count(1) < count(0)
-        };
+        let excusable_first =
+            (1..k).contains(&clean) && candidates.len() >= ORDER_MIN_CANDIDATES && {
+                let sample: Vec<u32> = candidates
+                    .iter()
+                    .step_by((candidates.len() / ORDER_SAMPLE).max(1))
+                    .copied()
+                    .collect();
+                let passes = backend.map(sample.len(), |i| {
+                    let p = sample[i];
+                    let pass = |layer| self.extend(p, layer, &mut self.start(p)) <= self.threshold;
+                    [pass(clean - 1), pass(clean)]
+                });
+                let count = |lead: usize| passes.iter().filter(|p| p[lead]).count();
+                count(1) < count(0)
+            };
         ClutterPolicy::selective_order(clean, k, excusable_first)
     }
 
