@@ -41,7 +41,7 @@
 
 use crate::exec::Backend;
 use crate::math::{Vec3, symmetric_eigen};
-use crate::voxel::{Ball, Grid, Solid, level_for_radius};
+use crate::voxel::{Ball, Grid, Solid, dilate, level_for_radius};
 
 /// Surface samples taken from the template.
 const SAMPLES: usize = 4096;
@@ -76,6 +76,15 @@ struct Frame {
 
 /// A template prepared for verification.
 pub struct Verifier {
+    /// The template's skin grown by two voxels: what explains scene
+    /// surface. One more than the forward test allows, so that a bent copy
+    /// (the scene's surface a voxel or two off the rigid template's) is
+    /// explained while extra material, many voxels off, is not.
+    explains: Grid,
+    /// The voxel the template is placed by.
+    anchor: [i64; 3],
+    /// The template's extent from c_T, in voxels.
+    reach: f64,
     /// The balls frames are taken from, one per layer radius.
     balls: Vec<Ball>,
     /// The template's frame in each of them.
@@ -95,6 +104,9 @@ pub struct Placement {
     pub surface: f64,
     /// Share of the template's surface buried in the scene's solid.
     pub buried: f64,
+    /// Share of the scene part's surface within the template's extent that
+    /// lands on the template's surface.
+    pub explained: f64,
     /// Rotation from template to scene (rows).
     pub rotation: [Vec3; 3],
     /// Where the template's point c_T lands, relative to the checked voxel
@@ -103,21 +115,24 @@ pub struct Placement {
 }
 
 impl Placement {
-    /// The placement's score: its surface agreement.
+    /// The placement's score: its surface agreement both ways.
     pub fn score(&self) -> f64 {
-        self.surface
+        self.surface.min(self.explained)
     }
 }
 
 impl Verifier {
     /// Prepares the template whose descriptors are taken at voxel `anchor` of
-    /// `solid`, whose skin voxels are `skin`; `target` is c_T relative to the
-    /// anchor's centre and `radii` the layer radii, all in voxels (the last
-    /// is the template's extent). Up to `max_hidden` of its surface may land
-    /// inside the scene's solid.
+    /// `solid`, whose skin voxels are `skin` (grown by a voxel:
+    /// `near_surface`); `target` is c_T relative to the anchor's centre and
+    /// `radii` the layer radii, all in voxels (the last is the template's
+    /// extent). Up to `max_hidden` of its surface may land inside the
+    /// scene's solid.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         solid: &Solid,
         skin: &[[u16; 3]],
+        near_surface: &Grid,
         anchor: [u16; 3],
         target: Vec3,
         radii: &[f64],
@@ -152,6 +167,9 @@ impl Verifier {
             .filter(|p| p.length() <= radius)
             .collect();
         Verifier {
+            explains: dilate(near_surface, backend),
+            anchor: a,
+            reach: radius,
             balls,
             frames,
             surface: spread(surface_pts),
@@ -164,8 +182,20 @@ impl Verifier {
     /// of every layer's ball and keeps the best placement. Poses are ranked
     /// by surface agreement on every 16th surface sample first; only those
     /// within reach of the best are counted in full, and the winner is
-    /// refined. `near_surface` is the scene's skin grown by a voxel.
-    pub fn check(&self, solid: &Solid, near_surface: &Grid, v: [u16; 3]) -> Placement {
+    /// refined. `near_surface` is the scene's skin grown by a voxel. The
+    /// other way, what the template explains of the scene, is measured
+    /// only for a placement whose surface agreement reaches `threshold`,
+    /// and only when `two_sided`: where the scene around a point may hold
+    /// other objects (a part joined with what overlaps it), their surface
+    /// is clutter, not the copy's.
+    pub fn check(
+        &self,
+        solid: &Solid,
+        near_surface: &Grid,
+        v: [u16; 3],
+        threshold: f64,
+        two_sided: bool,
+    ) -> Placement {
         let vi = v.map(|c| c as i64);
         let mut poses = Vec::with_capacity(4 * self.balls.len());
         for (ball, ft) in self.balls.iter().zip(&self.frames) {
@@ -226,11 +256,71 @@ impl Verifier {
             *pose
         };
         let counts = self.surface_counts(near_surface, bits, vi, pose, 1);
+        let surface = counts.score(self.max_hidden);
         Placement {
-            surface: counts.score(self.max_hidden),
+            surface,
             buried: counts.buried as f64 / counts.total.max(1) as f64,
+            explained: if !two_sided {
+                1.0
+            } else if surface >= threshold {
+                self.explained(bits, vi, pose)
+            } else {
+                0.0
+            },
             rotation: pose.rows,
             offset: pose.shift + rotate_with(&pose.rows, self.target),
+        }
+    }
+
+    /// The share of the scene's surface voxels within the template's extent
+    /// around its placed c_T that land within two voxels of the template's
+    /// surface. The scene is one part here, so what the template does not
+    /// explain is the part's own: a longer pin holds a shorter one's
+    /// surface, but not the other way round.
+    fn explained(&self, bits: &Grid, v: [i64; 3], pose: &Pose) -> f64 {
+        let centre = pose.shift + rotate_with(&pose.rows, self.target);
+        // The rim voxel's rounding aside.
+        let reach = (self.reach - 1.0).max(0.0);
+        let r = reach.ceil() as i64;
+        let c = [0, 1, 2].map(|i| v[i] + centre[i].round() as i64);
+        let (mut total, mut hits) = (0usize, 0usize);
+        // Every other voxel along each axis: an eighth of the work, and
+        // still thousands of surface samples on a template of tens of
+        // voxels.
+        for z in (c[2] - r..=c[2] + r).step_by(2) {
+            for y in (c[1] - r..=c[1] + r).step_by(2) {
+                for x in (c[0] - r..=c[0] + r).step_by(2) {
+                    let d = Vec3::new((x - v[0]) as f64, (y - v[1]) as f64, (z - v[2]) as f64);
+                    if (d - centre).length() > reach || !bits.get(x, y, z) {
+                        continue;
+                    }
+                    let inner = bits.get(x - 1, y, z)
+                        && bits.get(x + 1, y, z)
+                        && bits.get(x, y - 1, z)
+                        && bits.get(x, y + 1, z)
+                        && bits.get(x, y, z - 1)
+                        && bits.get(x, y, z + 1);
+                    if inner {
+                        continue;
+                    }
+                    total += 1;
+                    // Back into the template: a = R^T (d - shift).
+                    let q = d - pose.shift;
+                    let a = pose.rows[0] * q.x + pose.rows[1] * q.y + pose.rows[2] * q.z;
+                    if self.explains.get(
+                        self.anchor[0] + a.x.round() as i64,
+                        self.anchor[1] + a.y.round() as i64,
+                        self.anchor[2] + a.z.round() as i64,
+                    ) {
+                        hits += 1;
+                    }
+                }
+            }
+        }
+        if total == 0 {
+            1.0
+        } else {
+            hits as f64 / total as f64
         }
     }
 
@@ -467,7 +557,7 @@ fn spread<T: Copy>(items: Vec<T>) -> Vec<T> {
 mod tests {
     use super::*;
     use crate::mesh::shapes::{cuboid, uv_sphere};
-    use crate::voxel::{GridSpec, dilate, skin, voxelize};
+    use crate::voxel::{GridSpec, skin, voxelize};
 
     #[test]
     fn stopping_a_losing_pose_early_decides_as_the_full_count() {
@@ -485,6 +575,7 @@ mod tests {
         let verifier = Verifier::new(
             &solid,
             &surface,
+            &near,
             anchor,
             Vec3::ZERO,
             &radii,
@@ -516,5 +607,55 @@ mod tests {
         }
         // Both outcomes occur, so the comparison means something.
         assert!(decided[0] > 10 && decided[1] > 10, "{decided:?}");
+    }
+
+    /// The voxels of `mesh` on a grid of `voxel` around `bounds`: solid,
+    /// skin list and skin grown by a voxel.
+    fn voxels(mesh: &crate::mesh::TriMesh, spec: &GridSpec) -> (Solid, Vec<[u16; 3]>, Grid) {
+        let solid = Solid::new(voxelize(mesh, spec, Backend::Serial));
+        let skin_grid = skin(solid.bits(), Backend::Serial);
+        let near = dilate(&skin_grid, Backend::Serial);
+        (solid, skin_grid.iter_ones().collect(), near)
+    }
+
+    #[test]
+    fn a_part_with_more_surface_than_the_template_is_not_explained() {
+        // A rod, and the same rod twice as long: the short one's surface
+        // lies on the long one's, but the long one's extra surface within
+        // the short one's extent has nothing to explain it.
+        let short = cuboid(Vec3::new(-0.5, -0.1, -0.1), Vec3::new(0.5, 0.1, 0.1));
+        let long = cuboid(Vec3::new(-0.5, -0.1, -0.1), Vec3::new(1.5, 0.1, 0.1));
+        let spec = GridSpec::around(long.bounds(), 0.02).unwrap();
+        let (tsolid, tskin, tnear) = voxels(&short, &spec);
+        // c_T at the middle of the short rod's top face.
+        let anchor = tskin
+            .iter()
+            .copied()
+            .min_by(|a, b| {
+                let d = |v: &[u16; 3]| (spec.center(*v) - Vec3::new(0.0, 0.1, 0.0)).length();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        let target = (Vec3::new(0.0, 0.1, 0.0) - spec.center(anchor)) / spec.voxel_size;
+        let radii: Vec<f64> = (1..=4).map(|i| 13.0 * i as f64).collect();
+        let verifier = Verifier::new(
+            &tsolid,
+            &tskin,
+            &tnear,
+            anchor,
+            target,
+            &radii,
+            0.3,
+            Backend::Serial,
+        );
+        let same = verifier.check(&tsolid, &tnear, anchor, 0.85, true);
+        assert!(same.surface > 0.95 && same.explained > 0.95, "{same:?}");
+        let (lsolid, _, lnear) = voxels(&long, &spec);
+        let longer = verifier.check(&lsolid, &lnear, anchor, 0.85, true);
+        let one_sided = verifier.check(&lsolid, &lnear, anchor, 0.85, false);
+        assert!(one_sided.score() > 0.95, "{one_sided:?}");
+        assert!(longer.surface > 0.95, "{longer:?}");
+        assert!(longer.explained < 0.85, "{longer:?}");
+        assert!(longer.score() < 0.85);
     }
 }

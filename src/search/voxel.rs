@@ -12,7 +12,7 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
-use crate::scene::{Scene, ScenePart};
+use crate::scene::{Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 
@@ -47,6 +47,7 @@ pub(super) fn search_voxels(
     let verifier = Verifier::new(
         tvoxels.solid(),
         tvoxels.skin(),
+        tvoxels.near_surface(),
         tvoxel,
         template.center_offset(),
         &radii_voxels,
@@ -61,6 +62,9 @@ pub(super) fn search_voxels(
         .filter(|(_, part)| part.radius() >= template.min_part_radius())
         .collect();
     check_part_volume(scene, &parts, reach)?;
+    // A part is one component: what the template does not explain of it
+    // is the copy's own (see `Verifier::check`).
+    let two_sided = template.parts() == Parts::Components;
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
     for (i, part) in parts {
@@ -125,7 +129,13 @@ pub(super) fn search_voxels(
         let verified: Vec<Verified> = backend
             .map_each(bests.len(), |b| {
                 let v = voxels.skin()[bests[b].point as usize];
-                let placement = verifier.check(voxels.solid(), voxels.near_surface(), v);
+                let placement = verifier.check(
+                    voxels.solid(),
+                    voxels.near_surface(),
+                    v,
+                    options.verify_threshold,
+                    two_sided,
+                );
                 let position = voxels.position(bests[b].point) + placement.offset * voxel;
                 Verified {
                     survivor: bests[b],
