@@ -132,6 +132,7 @@ pub(super) fn search_voxels(
                 let placement = verifier.check(
                     voxels.solid(),
                     voxels.near_surface(),
+                    voxels.skin(),
                     v,
                     options.verify_threshold,
                     two_sided,
