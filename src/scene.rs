@@ -94,6 +94,16 @@ impl Default for SceneOptions {
     }
 }
 
+/// The voxel lattice a search reads the scene on: the scene's own, or a
+/// finer one for a small template (same origin).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lattice {
+    /// The grid over the whole scene.
+    pub spec: GridSpec,
+    /// Voxels along the scene's longest side.
+    pub resolution: u32,
+}
+
 /// A part's grid may always take this much for its padding.
 pub const PAD_FLOOR_BYTES: u64 = 4 << 20;
 
@@ -308,16 +318,56 @@ impl Scene {
             .expect("every triangle is in a part")
     }
 
+    /// The scene's own lattice.
+    pub fn lattice(&self) -> Lattice {
+        Lattice {
+            spec: self.spec,
+            resolution: self.resolution,
+        }
+    }
+
+    /// The lattice on which a template of bounding radius `radius` spans at
+    /// least `voxels` voxels: the scene's own, or finer, as long as the
+    /// largest part's grids take at most half the memory budget (a dense
+    /// grid per part: a tiny template on a large part would need more).
+    pub fn lattice_for(&self, radius: f64, voxels: f64) -> Result<Lattice> {
+        let longest = self.mesh.bounds().extent().max_element();
+        let needed = (longest * voxels / radius).ceil();
+        if !(needed.is_finite() && needed > f64::from(self.resolution)) {
+            return Ok(self.lattice());
+        }
+        let largest = self.parts.iter().map(|p| p.bounds).max_by(|a, b| {
+            let volume = |b: &Aabb| b.extent().x * b.extent().y * b.extent().z;
+            volume(a).total_cmp(&volume(b))
+        });
+        let fits = |spec: &GridSpec| {
+            largest.is_none_or(|b| {
+                spec.crop(b, PADDING)
+                    .is_ok_and(|c| voxel_bytes(&c) <= self.memory_budget / 2)
+            })
+        };
+        let mut resolution = needed.min(16384.0) as u32;
+        while resolution > self.resolution {
+            let spec = GridSpec::for_scene(self.mesh.bounds(), resolution)?;
+            if fits(&spec) {
+                return Ok(Lattice { spec, resolution });
+            }
+            resolution = (resolution as f64 * 0.9) as u32;
+        }
+        Ok(self.lattice())
+    }
+
     /// Voxelizes `part` on its own for a template reaching `reach` voxels
     /// from its centre, after checking that its grids fit the memory budget
     /// beside `held` (what the search holds already).
     pub fn voxelize_part(
         &self,
         part: &ScenePart,
+        lattice: &Lattice,
         reach: f64,
         held: &MemoryEstimate,
     ) -> Result<PartVoxels> {
-        let spec = self.part_spec(part, reach)?;
+        let spec = self.part_spec(part, lattice, reach)?;
         let mut estimate = held.clone();
         estimate.add("a part's voxel grids and count pyramid", voxel_bytes(&spec));
         estimate.check(self.memory_budget, || {
@@ -327,7 +377,7 @@ impl Scene {
                 spec.dims[0],
                 spec.dims[1],
                 spec.dims[2],
-                self.resolution
+                lattice.resolution
             )
         })?;
         Ok(PartVoxels::build(
@@ -342,8 +392,8 @@ impl Scene {
     /// grid's border take the readers' slow path, which made a search of
     /// many small parts twice as slow. The padding may at most double the
     /// part's memory (or take [`PAD_FLOOR_BYTES`]); past that it shrinks.
-    pub fn part_spec(&self, part: &ScenePart, reach: f64) -> Result<GridSpec> {
-        let tight = self.spec.crop(part.bounds, PADDING)?;
+    pub fn part_spec(&self, part: &ScenePart, lattice: &Lattice, reach: f64) -> Result<GridSpec> {
+        let tight = lattice.spec.crop(part.bounds, PADDING)?;
         let cap = 2 * voxel_bytes(&tight) + PAD_FLOOR_BYTES;
         let mut pad = if reach.is_finite() && reach > 0.0 {
             reach.ceil().min(f64::from(u16::MAX)) as usize + 2
@@ -351,7 +401,7 @@ impl Scene {
             PADDING
         };
         while pad > PADDING {
-            if let Ok(spec) = self.spec.crop(part.bounds, pad)
+            if let Ok(spec) = lattice.spec.crop(part.bounds, pad)
                 && voxel_bytes(&spec) <= cap
             {
                 return Ok(spec);

@@ -25,12 +25,18 @@ fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
     let (scene_s, serial) = run(scene_bytes, template, Backend::Serial);
     let (scene_p, parallel) = run(scene_bytes, template, Backend::Parallel);
     // Every part's voxels, at the padding a search uses.
-    let reach = serial.template.radius / scene_s.voxel_size();
+    let lattice = scene_s
+        .lattice_for(
+            fast_reject::template::VoxelTemplate::bounding_radius(template),
+            MatchOptions::DEFAULT.template_voxels,
+        )
+        .unwrap();
+    let reach = serial.template.radius / lattice.spec.voxel_size;
     let held = fast_reject::MemoryEstimate::default();
     let parts = |scene: &Scene| scene.parts(Parts::Components).to_vec();
     for (i, (a, b)) in parts(&scene_s).iter().zip(parts(&scene_p)).enumerate() {
-        let s = scene_s.voxelize_part(a, reach, &held).unwrap();
-        let p = scene_p.voxelize_part(&b, reach, &held).unwrap();
+        let s = scene_s.voxelize_part(a, &lattice, reach, &held).unwrap();
+        let p = scene_p.voxelize_part(&b, &lattice, reach, &held).unwrap();
         assert!(s.grid() == p.grid(), "voxel grids of part {i} differ");
         assert_eq!(s.skin(), p.skin());
         assert!(s.near_surface() == p.near_surface());

@@ -61,7 +61,8 @@ fn match_prints_the_json_contract() {
     }
     assert_eq!(stages[0]["descriptor"], "volume");
     assert_eq!(stages[11]["descriptor"], "harmonics");
-    assert_eq!(v["grid"]["resolution"], 512);
+    // The scene's 512, or finer where the template is small.
+    assert!(v["grid"]["resolution"].as_u64().unwrap() >= 512);
     assert!(
         v["grid"]["voxel_size"].as_f64().unwrap() > 0.0
             && v["grid"]["skin_voxels"].as_u64().unwrap() > 0

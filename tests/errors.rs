@@ -259,10 +259,28 @@ fn a_template_too_small_for_the_voxels_is_an_error() {
         center: [1.0, 0.0, 0.0],
         radius: 0.05,
     };
+    // At the scene's own resolution it is too small...
+    let mut fixed = MatchOptions::DEFAULT;
+    fixed.template_voxels = 0.0;
     assert!(matches!(
-        search(&scene, &tiny, &MatchOptions::DEFAULT, &mut ()),
+        search(&scene, &tiny, &fixed, &mut ()),
         Err(Error::TemplateTooSmall { .. })
     ));
+    // ...and by default the grid is refined for it, as far as the largest
+    // part's grids fit in half the memory budget (not the 32 voxels per
+    // radius asked for: the sphere would need 1350^3 voxels).
+    let lattice = scene
+        .lattice_for(0.05, MatchOptions::DEFAULT.template_voxels)
+        .unwrap();
+    assert!(lattice.resolution > scene.resolution(), "{lattice:?}");
+    assert!(0.05 / lattice.spec.voxel_size < 32.0, "{lattice:?}");
+    let small = scene
+        .lattice_for(0.5, MatchOptions::DEFAULT.template_voxels)
+        .unwrap();
+    assert!(
+        (0.5 / small.spec.voxel_size - 32.0).abs() < 0.5,
+        "{small:?}"
+    );
 }
 
 #[test]

@@ -309,13 +309,16 @@ fn case_7_a_template_no_resolution_fits_says_so() {
     let e = search(&scene, &tiny, &MatchOptions::DEFAULT, &mut ()).unwrap_err();
     assert!(matches!(e, Error::TemplateTooSmall { .. }), "{e}");
     assert!(e.to_string().contains("no resolution fits"), "{e}");
-    // Where a resolution would do, it is named.
+    // Where a resolution would do, it is named (the search refines the
+    // grid for a small template itself unless told not to).
     let scene = small_scene(64);
     let small = TemplateSource::Selection {
         center: [0.0; 3],
         radius: 0.05,
     };
-    let e = search(&scene, &small, &MatchOptions::DEFAULT, &mut ()).unwrap_err();
+    let mut fixed = MatchOptions::DEFAULT;
+    fixed.template_voxels = 0.0;
+    let e = search(&scene, &small, &fixed, &mut ()).unwrap_err();
     assert!(
         e.to_string().contains("raise the resolution to at least"),
         "{e}"

@@ -66,6 +66,8 @@ export interface MatchOptions {
   verifyThreshold?: number;
   /** Largest share of a model template's surface other material may hide, 0..1 (default 0.3). */
   hiddenSurface?: number;
+  /** Least number of voxels a voxel template's bounding radius spans: a smaller template refines the grid; 0 keeps the scene's resolution (default 32). */
+  templateVoxels?: number;
 }
 
 /** Every option's default, as the core defines them. */

@@ -150,6 +150,15 @@ pub struct MatchOptions {
     /// placements of a part on the wrong part of a whole 20-50%.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.hidden_surface))]
     pub hidden_surface: f64,
+    /// Voxel descriptors: the least number of voxels the template's
+    /// bounding radius spans; a smaller template refines the grid.
+    ///
+    /// The scene's resolution is raised for the search until the template
+    /// spans this many voxels: a part that is 2% of an assembly spans 10 at
+    /// resolution 512, where a copy's pose and a longer pin look alike.
+    /// 0 keeps the scene's resolution. Default: 32.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.template_voxels))]
+    pub template_voxels: f64,
     /// When extra material (other objects) excuses the outer layers; see
     /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
     /// The library's setting, for experiments; not on the CLI or in JavaScript.
@@ -175,6 +184,7 @@ impl MatchOptions {
         group_radius: 1.0,
         verify_threshold: 0.85,
         hidden_surface: 0.3,
+        template_voxels: 32.0,
         clutter: ClutterPolicy::DEFAULT,
         backend: Backend::Parallel,
     };
@@ -194,6 +204,12 @@ impl MatchOptions {
         positive("harmonics threshold", self.harmonics_threshold)?;
         positive("curvature threshold", self.curvature_threshold)?;
         positive("group radius", self.group_radius)?;
+        if !(self.template_voxels.is_finite() && (0.0..=4096.0).contains(&self.template_voxels)) {
+            return Err(Error::invalid_option(
+                "template voxels",
+                format!("must lie in 0..=4096, got {}", self.template_voxels),
+            ));
+        }
         if !(self.curvature_spacing.is_finite() && self.curvature_spacing >= 0.0) {
             return Err(Error::invalid_option(
                 "curvature spacing",

@@ -12,7 +12,7 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
-use crate::scene::{Parts, Scene, ScenePart};
+use crate::scene::{Lattice, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 
@@ -27,14 +27,23 @@ pub(super) fn search_voxels(
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
     let t0 = now_ms();
-    let template = VoxelTemplate::new(source, scene, options.layers, options.backend)?;
+    // A small template refines the grid until it spans enough voxels.
+    let lattice = if options.template_voxels > 0.0 {
+        scene.lattice_for(
+            VoxelTemplate::bounding_radius(source),
+            options.template_voxels,
+        )?
+    } else {
+        scene.lattice()
+    };
+    let template = VoxelTemplate::new(source, scene, &lattice, options.layers, options.backend)?;
     let radii = template.radii();
     let (tvoxels, tvoxel, backend) = (template.voxels(), template.voxel(), options.backend);
-    let voxel = scene.voxel_size();
+    let voxel = lattice.spec.voxel_size;
     let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
     let held = search_estimate(scene, &template, &radii_voxels);
     held.check(scene.memory_budget(), || {
-        too_much_for_template(&radii_voxels, scene)
+        too_much_for_template(&radii_voxels, &lattice)
     })?;
     let transform = SphericalTransform::new();
     // The balls' tables are built once: read at the template's one point,
@@ -61,7 +70,7 @@ pub(super) fn search_voxels(
         .enumerate()
         .filter(|(_, part)| part.radius() >= template.min_part_radius())
         .collect();
-    check_part_volume(scene, &parts, reach)?;
+    check_part_volume(scene, &lattice, &parts, reach)?;
     // A part is one component: what the template does not explain of it
     // is the copy's own (see `Verifier::check`).
     let two_sided = template.parts() == Parts::Components;
@@ -72,7 +81,7 @@ pub(super) fn search_voxels(
         let voxels = if template.scene_part() == Some(i) {
             tvoxels
         } else {
-            fresh = scene.voxelize_part(part, reach, &held)?;
+            fresh = scene.voxelize_part(part, &lattice, reach, &held)?;
             found.timings.voxelize += fresh.voxelize_ms();
             &fresh
         };
@@ -83,7 +92,7 @@ pub(super) fn search_voxels(
             format!(
                 "a part has {} candidate points (skin voxels) at resolution {}: lower the resolution (they fall with its square), or raise the memory budget",
                 voxels.skin().len(),
-                scene.resolution()
+                lattice.resolution
             )
         })?;
         let volume = VolumeDescriptor::with_balls(
@@ -175,7 +184,7 @@ pub(super) fn search_voxels(
         instances: found.instances,
         stages: found.stages,
         grid: Some(GridInfo {
-            resolution: scene.resolution(),
+            resolution: lattice.resolution,
             voxel_size: voxel,
             skin_voxels: found.skin_voxels,
         }),
@@ -237,16 +246,21 @@ const MAX_PART_VOLUME_FACTOR: u32 = 8;
 
 /// Fails when voxelizing `parts` one by one would fill far more voxels than
 /// the whole scene holds.
-fn check_part_volume(scene: &Scene, parts: &[(usize, &ScenePart)], reach: f64) -> Result<()> {
+fn check_part_volume(
+    scene: &Scene,
+    lattice: &Lattice,
+    parts: &[(usize, &ScenePart)],
+    reach: f64,
+) -> Result<()> {
     let voxels: f64 = parts
         .iter()
         .map(|(_, part)| {
             scene
-                .part_spec(part, reach)
+                .part_spec(part, lattice, reach)
                 .map_or(f64::INFINITY, |s| s.voxel_count() as f64)
         })
         .sum();
-    let limit = f64::from(MAX_PART_VOLUME_FACTOR) * scene.spec().voxel_count() as f64;
+    let limit = f64::from(MAX_PART_VOLUME_FACTOR) * lattice.spec.voxel_count() as f64;
     if voxels <= limit {
         return Ok(());
     }
@@ -254,16 +268,16 @@ fn check_part_volume(scene: &Scene, parts: &[(usize, &ScenePart)], reach: f64) -
         voxels,
         limit,
         factor: MAX_PART_VOLUME_FACTOR,
-        resolution: scene.resolution(),
+        resolution: lattice.resolution,
         advice: "weld the mesh so that a part's triangles share vertices, or search a region of the scene".into(),
     })
 }
 
 /// The advice when the template's own structures pass the budget.
-fn too_much_for_template(radii: &[f64], scene: &Scene) -> String {
+fn too_much_for_template(radii: &[f64], lattice: &Lattice) -> String {
     let outer = radii.last().copied().unwrap_or_default();
     format!(
         "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
-        scene.resolution()
+        lattice.resolution
     )
 }

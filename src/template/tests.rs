@@ -9,7 +9,7 @@ use crate::scene::SceneOptions;
 /// [`VoxelTemplate::new`] as every test here calls it: the one place to change
 /// when its signature does.
 fn voxel_template(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<VoxelTemplate> {
-    VoxelTemplate::new(source, scene, layers, Backend::Serial)
+    VoxelTemplate::new(source, scene, &scene.lattice(), layers, Backend::Serial)
 }
 
 /// [`CurvatureTemplate::new`], likewise.

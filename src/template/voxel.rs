@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::{Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
-use crate::scene::{PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
+use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
 use crate::voxel::GridSpec;
 
 /// A template prepared against a scene.
@@ -44,11 +44,12 @@ impl VoxelTemplate {
     pub fn new(
         source: &TemplateSource,
         scene: &Scene,
+        lattice: &Lattice,
         layers: usize,
         backend: Backend,
     ) -> Result<VoxelTemplate> {
         check_layers(layers)?;
-        let voxel_size = scene.voxel_size();
+        let voxel_size = lattice.spec.voxel_size;
         let (center, radius, voxels, scene_part, parts, min_part_radius, voxel) = match source {
             TemplateSource::Model(model) => {
                 let sphere = bounding_sphere(model);
@@ -63,7 +64,7 @@ impl VoxelTemplate {
                     "template",
                     model,
                     voxel_size,
-                    scene.resolution(),
+                    lattice.resolution,
                     scene.max_voxel_work(),
                 )?;
                 let mut estimate = scene.mesh_estimate();
@@ -76,7 +77,7 @@ impl VoxelTemplate {
                 estimate.check(scene.memory_budget(), || {
                     format!(
                         "lower the resolution (now {}), or raise the memory budget",
-                        scene.resolution()
+                        lattice.resolution
                     )
                 })?;
                 let voxels = PartVoxels::build(model, &spec, backend);
@@ -112,11 +113,12 @@ impl VoxelTemplate {
                     format!(
                         "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
                         radius / voxel_size,
-                        scene.resolution()
+                        lattice.resolution
                     )
                 })?;
                 let voxels = scene.voxelize_part(
                     &scene.parts(Parts::Components)[part],
+                    lattice,
                     radius / voxel_size,
                     &held,
                 )?;
@@ -146,7 +148,7 @@ impl VoxelTemplate {
         };
         let first = radius / layers as f64;
         if first / voxel_size < MIN_RADIUS_VOXELS {
-            return Err(too_small(first / voxel_size, scene.resolution()));
+            return Err(too_small(first / voxel_size, lattice.resolution));
         }
         Ok(VoxelTemplate {
             center,
@@ -158,6 +160,15 @@ impl VoxelTemplate {
             min_part_radius,
             voxel,
         })
+    }
+
+    /// The radius a template spans before it is built: a model's bounding
+    /// sphere, a selection's sphere (what sizes the search's voxels).
+    pub fn bounding_radius(source: &TemplateSource) -> f64 {
+        match source {
+            TemplateSource::Model(model) => bounding_sphere(model).radius,
+            TemplateSource::Selection { radius, .. } => *radius,
+        }
     }
 
     /// c_T: in the model's coordinates, or in world coordinates for a selection.
