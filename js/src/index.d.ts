@@ -134,7 +134,7 @@ export interface TemplateOptions {
   format?: MeshFormat;
 }
 
-/** Called after every cascade layer; return `false` (or throw) to cancel. */
+/** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
 declare abstract class Handle {
