@@ -50,6 +50,19 @@ pub struct Part {
     pub source: u32,
 }
 
+impl Part {
+    /// One part covering a whole mesh of `vertices` and `triangles`.
+    fn whole(vertices: usize, triangles: usize) -> Part {
+        Part {
+            first_vertex: 0,
+            vertex_count: vertices as u32,
+            first_triangle: 0,
+            triangle_count: triangles as u32,
+            source: 0,
+        }
+    }
+}
+
 impl TriMesh {
     /// Validates positions and triangles into a mesh.
     ///
@@ -57,13 +70,7 @@ impl TriMesh {
     /// triangle with area is left; drops triangles with repeated corners or
     /// zero area.
     pub fn new(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> Result<TriMesh> {
-        let part = Part {
-            first_vertex: 0,
-            vertex_count: positions.len() as u32,
-            first_triangle: 0,
-            triangle_count: triangles.len() as u32,
-            source: 0,
-        };
+        let part = Part::whole(positions.len(), triangles.len());
         TriMesh::with_parts(positions, triangles, vec![part])
     }
 
@@ -235,13 +242,7 @@ impl TriMesh {
                 })
             })
             .collect::<Vec<_>>();
-        let part = Part {
-            first_vertex: 0,
-            vertex_count: positions.len() as u32,
-            first_triangle: 0,
-            triangle_count: triangles.len() as u32,
-            source: 0,
-        };
+        let part = Part::whole(positions.len(), triangles.len());
         // The triangles were validated with these positions.
         TriMesh {
             positions,
