@@ -37,7 +37,7 @@ pub struct Instance {
     /// scenes' truth.json (for a selection, template coordinates are the
     /// scene's). It maps c_T to `position`. None where the descriptor has no
     /// verification (curvature), which is what finds the rotation.
-    pub transform: Option<[[f64; 4]; 4]>,
+    pub pose: Option<[[f64; 4]; 4]>,
 }
 
 /// A survivor with its verification.
@@ -49,8 +49,8 @@ pub struct Verified {
     pub score: f64,
     /// Where its placement puts the template's point c_T (world).
     pub position: Vec3,
-    /// The placement as a transform (see [`Instance::transform`]).
-    pub transform: Option<[[f64; 4]; 4]>,
+    /// The placement as a pose (see [`Instance::pose`]).
+    pub pose: Option<[[f64; 4]; 4]>,
 }
 
 /// The row-major 4x4 transform that turns by `rotation` (rows) about the
@@ -117,7 +117,7 @@ pub fn group(
                     distance: v.survivor.distance,
                     score: Some(v.score),
                     support: 0,
-                    transform: v.transform,
+                    pose: v.pose,
                 },
             ));
         }
@@ -168,7 +168,7 @@ mod tests {
                 survivor: b,
                 score: scores[b.point as usize],
                 position: pos(b.point),
-                transform: None,
+                pose: None,
             })
             .collect();
         let g = group(&v, &s, pos, 1.0);

@@ -58,6 +58,7 @@
 // would hide the arithmetic.
 #![allow(clippy::needless_range_loop)]
 
+pub(crate) mod align;
 pub(crate) mod budget;
 pub mod cascade;
 pub(crate) mod clock;

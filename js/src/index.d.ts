@@ -100,7 +100,7 @@ export interface Instance {
   /** Surviving points the instance gathered. */
   support: number;
   /** The template's pose: a row-major 4x4 matrix from template to scene coordinates (it maps c_T to `position`); null for curvature, which finds no rotation. */
-  transform: Matrix4 | null;
+  pose: Matrix4 | null;
 }
 
 /** A row-major 4x4 matrix; the last row is 0, 0, 0, 1. */

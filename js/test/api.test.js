@@ -88,7 +88,7 @@ test('bad input is an Error and the module stays usable', async () => {
   assert.equal(report.highlightRadius, report.template.radius);
   // Each instance's pose: a 4x4 matrix that maps c_T to its position.
   for (const instance of report.instances) {
-    const [t, c] = [instance.transform, report.template.center];
+    const [t, c] = [instance.pose, report.template.center];
     assert.deepEqual(t[3], [0, 0, 0, 1]);
     const mapped = [0, 1, 2].map((r) => t[r][0] * c[0] + t[r][1] * c[1] + t[r][2] * c[2] + t[r][3]);
     mapped.forEach((v, k) => assert.ok(Math.abs(v - instance.position[k]) < 1e-9));

@@ -81,7 +81,7 @@ pub(super) fn search_curvature(
             survivor: s,
             score: 1.0,
             position: position(s.point),
-            transform: None,
+            pose: None,
         })
         .collect();
     let mut instances = group(

@@ -5,6 +5,7 @@
 
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
+use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
@@ -12,6 +13,7 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
+use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
@@ -74,6 +76,7 @@ pub(super) fn search_voxels(
     // A part is one component: what the template does not explain of it
     // is the copy's own (see `Verifier::check`).
     let two_sided = template.parts() == Parts::Components;
+    let samples = template_samples(source, scene, &template);
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
     for (i, part) in parts {
@@ -151,7 +154,7 @@ pub(super) fn search_voxels(
                     survivor: bests[b],
                     score: placement.score(),
                     position,
-                    transform: Some(placement_transform(
+                    pose: Some(placement_transform(
                         &placement.rotation,
                         template.center(),
                         position,
@@ -161,12 +164,22 @@ pub(super) fn search_voxels(
             .into_iter()
             .filter(|v| v.score >= options.verify_threshold)
             .collect();
-        found.instances.extend(group(
+        let mut instances = group(
             &verified,
             &survivors,
             position,
             options.group_radius * template.radius(),
-        ));
+        );
+        align_instances(
+            &mut instances,
+            scene,
+            part,
+            &samples,
+            &template,
+            voxel,
+            backend,
+        );
+        found.instances.extend(instances);
         found.add_stats(stats);
         found.skin_voxels += voxels.skin().len();
         found.timings.match_ += t2 - t1;
@@ -194,6 +207,80 @@ pub(super) fn search_voxels(
             ..found.timings
         },
     })
+}
+
+/// Surface samples the template's pose is refined with: a model's whole
+/// surface, or the selected part's within the sphere.
+fn template_samples(
+    source: &TemplateSource,
+    scene: &Scene,
+    template: &VoxelTemplate,
+) -> SurfaceSamples {
+    let (c, r) = (template.center(), template.radius());
+    let triangles: Vec<[Vec3; 3]> = match source {
+        TemplateSource::Model(model) => (0..model.triangles().len())
+            .map(|t| model.corners(t))
+            .collect(),
+        TemplateSource::Selection { .. } => {
+            let part = template
+                .scene_part()
+                .expect("a selection lies on a scene part");
+            scene.parts(Parts::Components)[part]
+                .triangles()
+                .iter()
+                .map(|&t| scene.mesh().corners(t as usize))
+                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
+                .collect()
+        }
+    };
+    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
+}
+
+/// Template surface samples for the pose refinement.
+const ALIGN_SAMPLES: usize = 1024;
+
+/// Refines each instance's pose on the meshes ([`crate::align`]): the
+/// template's samples onto `part`'s triangles around the instance. The
+/// instance's position follows its pose.
+fn align_instances(
+    instances: &mut [Instance],
+    scene: &Scene,
+    part: &ScenePart,
+    samples: &SurfaceSamples,
+    template: &VoxelTemplate,
+    voxel: f64,
+    backend: crate::exec::Backend,
+) {
+    if samples.is_empty() {
+        return;
+    }
+    let mesh = scene.mesh();
+    let reach = template.radius() + 4.0 * voxel;
+    let refined = backend.map_each(instances.len(), |i| {
+        let start = Rigid::from_rows(&instances[i].pose?);
+        let p = Vec3::from_array(instances[i].position);
+        let bounds = Aabb {
+            min: p - Vec3::splat(reach),
+            max: p + Vec3::splat(reach),
+        };
+        let triangles: Vec<[Vec3; 3]> = part
+            .triangles()
+            .iter()
+            .map(|&t| mesh.corners(t as usize))
+            .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(p) <= reach))
+            .collect();
+        // Cells of 1.5 voxels, or of a 48th of the box for a template of
+        // many: queries reach a voxel or three.
+        let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
+        let index = SurfaceIndex::new(triangles, bounds, cell);
+        Some(align(samples, &index, start, voxel).pose)
+    });
+    for (instance, pose) in instances.iter_mut().zip(refined) {
+        if let Some(pose) = pose {
+            instance.pose = Some(pose.to_rows());
+            instance.position = pose.apply(template.center()).to_array();
+        }
+    }
 }
 
 /// What the parts searched so far have found.

@@ -116,21 +116,14 @@ fn compose(a: &serde_json::Value, b: &serde_json::Value) -> serde_json::Value {
     )
 }
 
-/// How far each reported pose is from the truth, as a share of r_k: for
-/// every instance, the nearest truth placement (through any of the
-/// template's symmetries) and the largest distance between where the two
-/// put c_T and the six points at r_k from it along the axes; the worst
-/// instance's. Panics when an instance has no pose.
-pub fn worst_pose_error(truth: &serde_json::Value, report: &MatchReport) -> f64 {
+/// How far the reported poses are from the truth: for every instance, the
+/// truth placement (through any of the template's symmetries) that puts
+/// c_T nearest to where the pose puts it, and among those that put it
+/// there, the nearest rotation. Returns the worst rotation (degrees) and
+/// the worst distance between the two c_T (a share of r_k). Panics when an
+/// instance has no pose.
+pub fn worst_pose_error(truth: &serde_json::Value, report: &MatchReport) -> (f64, f64) {
     let (c, r) = (report.template.center, report.template.radius);
-    let mut probes = vec![c];
-    for axis in 0..3 {
-        for sign in [-1.0, 1.0] {
-            let mut p = c;
-            p[axis] += sign * r;
-            probes.push(p);
-        }
-    }
     let symmetries: Vec<Option<&serde_json::Value>> = match truth.get("template_symmetries") {
         Some(serde_json::Value::Array(s)) if !s.is_empty() => s.iter().map(Some).collect(),
         _ => vec![None],
@@ -144,21 +137,39 @@ pub fn worst_pose_error(truth: &serde_json::Value, report: &MatchReport) -> f64 
             });
         }
     }
-    let mut worst: f64 = 0.0;
+    let (mut angle, mut shift): (f64, f64) = (0.0, 0.0);
     for instance in &report.instances {
-        let pose = serde_json::json!(instance.transform.expect("a voxel search reports a pose"));
-        let error = truths
+        let pose = serde_json::json!(instance.pose.expect("a voxel search reports a pose"));
+        let at = apply(&pose, c);
+        let nearest = truths
             .iter()
-            .map(|t| {
-                probes
-                    .iter()
-                    .map(|&p| dist(apply(&pose, p), apply(t, p)))
-                    .fold(0.0, f64::max)
-            })
+            .map(|t| dist(at, apply(t, c)))
             .fold(f64::INFINITY, f64::min);
-        worst = worst.max(error / r);
+        let turn = truths
+            .iter()
+            .filter(|t| dist(at, apply(t, c)) <= nearest + 1e-9 * r.max(1.0))
+            .map(|t| rotation_angle(&pose, t))
+            .fold(f64::INFINITY, f64::min);
+        angle = angle.max(turn);
+        shift = shift.max(nearest / r);
     }
-    worst
+    (angle, shift)
+}
+
+/// The angle (degrees) of the rotation between two transforms' rotation
+/// parts, each normalized column by column (a truth may carry a scale).
+fn rotation_angle(a: &serde_json::Value, b: &serde_json::Value) -> f64 {
+    let unit = |t: &serde_json::Value| {
+        let m = |r: usize, c: usize| t[r][c].as_f64().unwrap();
+        let norm = |c: usize| (0..3).map(|r| m(r, c).powi(2)).sum::<f64>().sqrt();
+        [0, 1, 2].map(|r| [0, 1, 2].map(|c| m(r, c) / norm(c)))
+    };
+    let (a, b) = (unit(a), unit(b));
+    let trace: f64 = (0..3)
+        .flat_map(|r| (0..3).map(move |k| (r, k)))
+        .map(|(r, k)| a[r][k] * b[r][k])
+        .sum();
+    ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// Scores a report against a scene's truth the way evaluate.py does.

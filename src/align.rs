@@ -1,0 +1,656 @@
+//! Pose refinement on the meshes: the last step from a verified placement to
+//! the pose reported.
+//!
+//! Verification places the template on voxels, and a voxel grid cannot tell
+//! a pose better than about a voxel at the template's rim: a degree or two,
+//! several per cent of the radius on a thin part. It cannot tell either
+//! side of a plate four voxels thick. The meshes can: the template's
+//! surface samples are pulled onto the scene's triangles by iterative
+//! closest points (point-to-plane, with a light point-to-point term that
+//! keeps a turn about a symmetry axis from drifting), trimmed so that what
+//! lies farther than a voxel or two (clutter, missing material) does not
+//! pull. The template turned by half a turn about each of its principal
+//! axes is aligned too: the one that lays more samples on the scene wins,
+//! the placement found first on a tie.
+
+use glam::{DMat3, DQuat};
+
+use crate::math::{Aabb, Vec3, symmetric_eigen};
+use crate::mesh::closest_point_on_triangle;
+
+/// Correspondences farther than this (voxels) are trimmed at the start; the
+/// gate then closes to [`FINAL_GATE`].
+const START_GATE: f64 = 3.0;
+
+/// The gate at the end of the alignment, in voxels.
+const FINAL_GATE: f64 = 1.0;
+
+/// Weight of the point-to-point term against the point-to-plane one.
+const POINT_WEIGHT: f64 = 0.1;
+
+/// Correspondences whose normals differ by more than this are trimmed
+/// (cosine, after [`facing`]).
+const NORMAL_COSINE: f64 = 0.5;
+
+/// A turned alignment replaces the placement found first when its misfit
+/// is below this share of the first's, and lower by [`FLIP_MARGIN`] voxels:
+/// a symmetric template's turns tie, and the first stays.
+const FLIP_SHARE: f64 = 0.5;
+
+/// See [`FLIP_SHARE`].
+const FLIP_MARGIN: f64 = 0.005;
+
+/// A rigid transform x -> R x + t.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid {
+    /// The rotation.
+    pub rotation: DMat3,
+    /// The translation.
+    pub translation: Vec3,
+}
+
+impl Rigid {
+    /// The transform of a row-major 4x4 matrix (last row ignored).
+    pub fn from_rows(m: &[[f64; 4]; 4]) -> Rigid {
+        Rigid {
+            rotation: DMat3::from_cols(
+                Vec3::new(m[0][0], m[1][0], m[2][0]),
+                Vec3::new(m[0][1], m[1][1], m[2][1]),
+                Vec3::new(m[0][2], m[1][2], m[2][2]),
+            ),
+            translation: Vec3::new(m[0][3], m[1][3], m[2][3]),
+        }
+    }
+
+    /// The row-major 4x4 matrix.
+    pub fn to_rows(self) -> [[f64; 4]; 4] {
+        let r = self.rotation;
+        let t = self.translation;
+        [
+            [r.x_axis.x, r.y_axis.x, r.z_axis.x, t.x],
+            [r.x_axis.y, r.y_axis.y, r.z_axis.y, t.y],
+            [r.x_axis.z, r.y_axis.z, r.z_axis.z, t.z],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    }
+
+    /// Where the transform takes `p`.
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        self.rotation * p + self.translation
+    }
+
+    /// First `other`, then this transform.
+    fn after(&self, other: &Rigid) -> Rigid {
+        Rigid {
+            rotation: self.rotation * other.rotation,
+            translation: self.rotation * other.translation + self.translation,
+        }
+    }
+
+    /// Half a turn about the line through `pivot` along `axis`.
+    fn half_turn(pivot: Vec3, axis: Vec3) -> Rigid {
+        let rotation = DMat3::from_quat(DQuat::from_axis_angle(
+            axis.normalize(),
+            std::f64::consts::PI,
+        ));
+        Rigid {
+            rotation,
+            translation: pivot - rotation * pivot,
+        }
+    }
+}
+
+/// Points spread evenly over a template's surface, with their triangles'
+/// normals, and the frame of their spread (for the half-turns).
+pub struct SurfaceSamples {
+    points: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    centroid: Vec3,
+    axes: [Vec3; 3],
+}
+
+impl SurfaceSamples {
+    /// About `count` samples spread over `triangles` by area (stratified,
+    /// deterministic), keeping those `keep` accepts.
+    pub fn new(
+        triangles: &[[Vec3; 3]],
+        count: usize,
+        keep: impl Fn(Vec3) -> bool,
+    ) -> SurfaceSamples {
+        let areas: Vec<f64> = triangles
+            .iter()
+            .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+            .collect();
+        let total: f64 = areas.iter().sum();
+        let (mut points, mut normals) = (Vec::new(), Vec::new());
+        if total > 0.0 && count > 0 {
+            let step = total / count as f64;
+            let (mut t, mut before) = (0, 0.0);
+            for j in 0..count {
+                let at = (j as f64 + 0.5) * step;
+                while t + 1 < triangles.len() && before + areas[t] < at {
+                    before += areas[t];
+                    t += 1;
+                }
+                // A low-discrepancy point of the triangle (the R2 sequence,
+                // folded into the lower half of the unit square).
+                let (mut u, mut v) = (
+                    (0.5 + j as f64 * 0.754_877_666_246_692_8).fract(),
+                    (0.5 + j as f64 * 0.569_840_290_998_053_3).fract(),
+                );
+                if u + v > 1.0 {
+                    (u, v) = (1.0 - u, 1.0 - v);
+                }
+                let [a, b, c] = triangles[t];
+                let p = a + (b - a) * u + (c - a) * v;
+                if keep(p) {
+                    points.push(p);
+                    normals.push((b - a).cross(c - a).normalize_or_zero());
+                }
+            }
+        }
+        let n = points.len().max(1) as f64;
+        let centroid = points.iter().fold(Vec3::ZERO, |s, &p| s + p) / n;
+        let mut m = [[0.0; 3]; 3];
+        for p in &points {
+            let d = (*p - centroid).to_array();
+            for i in 0..3 {
+                for j in 0..3 {
+                    m[i][j] += d[i] * d[j];
+                }
+            }
+        }
+        let (_, axes) = symmetric_eigen(m);
+        SurfaceSamples {
+            points,
+            normals,
+            centroid,
+            axes,
+        }
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+/// A scene's triangles near an occurrence, bucketed in a uniform grid for
+/// closest-point queries.
+pub struct SurfaceIndex {
+    triangles: Vec<[Vec3; 3]>,
+    normals: Vec<Vec3>,
+    /// Each triangle's bounding sphere (centre of its box), to skip it.
+    spheres: Vec<(Vec3, f64)>,
+    origin: Vec3,
+    cell: f64,
+    dims: [i64; 3],
+    /// Cell c's triangles are `members[starts[c]..starts[c + 1]]`.
+    starts: Vec<u32>,
+    members: Vec<u32>,
+}
+
+impl SurfaceIndex {
+    /// Indexes the parts of `triangles` inside `bounds`, in cells of side
+    /// `cell`.
+    pub fn new(triangles: Vec<[Vec3; 3]>, bounds: Aabb, cell: f64) -> SurfaceIndex {
+        let dims = (bounds.extent() / cell)
+            .ceil()
+            .max(Vec3::ONE)
+            .to_array()
+            .map(|d| d as i64);
+        let cells = (dims[0] * dims[1] * dims[2]) as usize;
+        let origin = bounds.min;
+        let range = |t: &[Vec3; 3]| -> Option<([i64; 3], [i64; 3])> {
+            let b = Aabb::around(t.iter().copied())?;
+            let lo = ((b.min - origin) / cell).floor().to_array();
+            let hi = ((b.max - origin) / cell).floor().to_array();
+            let mut out = ([0; 3], [0; 3]);
+            for i in 0..3 {
+                out.0[i] = (lo[i] as i64).max(0);
+                out.1[i] = (hi[i] as i64).min(dims[i] - 1);
+                if out.0[i] > out.1[i] {
+                    return None;
+                }
+            }
+            Some(out)
+        };
+        let index = |x: i64, y: i64, z: i64| ((z * dims[1] + y) * dims[0] + x) as usize;
+        let mut counts = vec![0u32; cells + 1];
+        let ranges: Vec<_> = triangles.iter().map(range).collect();
+        let each_cell = |r: &([i64; 3], [i64; 3]), f: &mut dyn FnMut(usize)| {
+            for z in r.0[2]..=r.1[2] {
+                for y in r.0[1]..=r.1[1] {
+                    for x in r.0[0]..=r.1[0] {
+                        f(index(x, y, z));
+                    }
+                }
+            }
+        };
+        for r in ranges.iter().flatten() {
+            each_cell(r, &mut |c| counts[c + 1] += 1);
+        }
+        for c in 0..cells {
+            counts[c + 1] += counts[c];
+        }
+        let mut fill = counts.clone();
+        let mut members = vec![0u32; counts[cells] as usize];
+        for (t, r) in ranges.iter().enumerate() {
+            if let Some(r) = r {
+                each_cell(r, &mut |c| {
+                    members[fill[c] as usize] = t as u32;
+                    fill[c] += 1;
+                });
+            }
+        }
+        let normals = triangles
+            .iter()
+            .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
+            .collect();
+        let spheres = triangles
+            .iter()
+            .map(|t| {
+                let b = Aabb::around(t.iter().copied()).expect("three corners");
+                let c = b.center();
+                (c, t.iter().map(|&p| p.distance(c)).fold(0.0, f64::max))
+            })
+            .collect();
+        SurfaceIndex {
+            triangles,
+            normals,
+            spheres,
+            origin,
+            cell,
+            dims,
+            starts: counts,
+            members,
+        }
+    }
+
+    /// The closest surface point to `p` within `reach`, with its
+    /// triangle's normal.
+    fn nearest(&self, p: Vec3, reach: f64) -> Option<(Vec3, Vec3, f64)> {
+        let home = ((p - self.origin) / self.cell)
+            .floor()
+            .to_array()
+            .map(|c| c as i64);
+        let rings = (reach / self.cell).ceil() as i64 + 1;
+        let mut best: Option<(Vec3, usize)> = None;
+        let mut bound = reach;
+        // Ring by ring outwards: past ring k, everything is at least k
+        // cells away.
+        for k in 0..=rings {
+            let range = |i: usize| (home[i] - k).max(0)..=(home[i] + k).min(self.dims[i] - 1);
+            for z in range(2) {
+                for y in range(1) {
+                    let inner = (z - home[2]).abs() < k && (y - home[1]).abs() < k;
+                    for x in range(0) {
+                        if inner && (x - home[0]).abs() < k {
+                            continue;
+                        }
+                        let min = self.origin + Vec3::new(x as f64, y as f64, z as f64) * self.cell;
+                        let gap = (min - p).max(p - (min + self.cell)).max(Vec3::ZERO);
+                        if gap.length_squared() > bound * bound {
+                            continue;
+                        }
+                        let c = ((z * self.dims[1] + y) * self.dims[0] + x) as usize;
+                        for &t in
+                            &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
+                        {
+                            let (centre, radius) = self.spheres[t as usize];
+                            if p.distance(centre) - radius > bound {
+                                continue;
+                            }
+                            let [a, b, cc] = self.triangles[t as usize];
+                            let q = closest_point_on_triangle(p, a, b, cc, t as usize);
+                            if q.distance2 <= bound * bound {
+                                bound = q.distance2.sqrt();
+                                best = Some((q.point, t as usize));
+                            }
+                        }
+                    }
+                }
+            }
+            if best.is_some() && bound <= k as f64 * self.cell {
+                break;
+            }
+        }
+        best.map(|(q, t)| (q, self.normals[t], bound))
+    }
+}
+
+/// The outcome of an alignment.
+#[derive(Clone, Copy, Debug)]
+pub struct Alignment {
+    /// The refined pose, template to scene.
+    pub pose: Rigid,
+    /// The samples' mean distance to the scene's surface, in voxels, each
+    /// capped at one.
+    pub misfit: f64,
+}
+
+/// Aligns `samples` (template coordinates) onto `scene` from `start`, and
+/// from `start` turned half a turn about each of the samples' principal
+/// axes, quickly on a quarter of the samples; the best is then aligned in
+/// full. `voxel` is the grid's voxel size, the scale of every tolerance.
+pub fn align(
+    samples: &SurfaceSamples,
+    scene: &SurfaceIndex,
+    start: Rigid,
+    voxel: f64,
+) -> Alignment {
+    let first = icp(samples, scene, start, voxel, QUICK);
+    let mut best = first;
+    // No turn can beat a fit this close (see FLIP_SHARE).
+    let turns = if first.misfit * FLIP_SHARE > FLIP_MARGIN {
+        samples.axes.as_slice()
+    } else {
+        &[]
+    };
+    for &axis in turns {
+        let turned = start.after(&Rigid::half_turn(samples.centroid, axis));
+        let turned = best_shift(samples, scene, turned, axis, voxel);
+        let a = icp(samples, scene, turned, voxel, QUICK);
+        if a.misfit < best.misfit.min(first.misfit * FLIP_SHARE - FLIP_MARGIN) {
+            best = a;
+        }
+    }
+    icp(samples, scene, best.pose, voxel, FULL)
+}
+
+/// Half-turns about parallel axes through two points differ by a shift
+/// across the axis: the template's half-turn symmetry, if it has one, need
+/// not pass through the samples' centroid. So the turned placement is tried
+/// shifted by whole voxels across `axis` (template coordinates), up to
+/// [`SHIFT_SEARCH`] each way, on a few samples, and the best kept.
+fn best_shift(
+    samples: &SurfaceSamples,
+    scene: &SurfaceIndex,
+    turned: Rigid,
+    axis: Vec3,
+    voxel: f64,
+) -> Rigid {
+    let e1 = axis.any_orthonormal_vector();
+    let e2 = axis.normalize().cross(e1);
+    let (e1, e2) = (turned.rotation * e1 * voxel, turned.rotation * e2 * voxel);
+    let stride = (samples.points.len() / SHIFT_SAMPLES).max(1);
+    let misfit = |pose: &Rigid| -> f64 {
+        samples
+            .points
+            .iter()
+            .step_by(stride)
+            .map(|&p| {
+                scene
+                    .nearest(pose.apply(p), voxel)
+                    .map_or(1.0, |n| n.2 / voxel)
+            })
+            .sum()
+    };
+    let mut best = (misfit(&turned), turned);
+    // Every other voxel first, then the voxels around the best.
+    let shifted = |centre: Rigid, u: i32, v: i32| Rigid {
+        translation: centre.translation + e1 * u as f64 + e2 * v as f64,
+        ..centre
+    };
+    let n = SHIFT_SEARCH;
+    for (centre, reach, step) in [(turned, n, 2), (Rigid { ..turned }, 1, 1)] {
+        let centre = if step == 1 { best.1 } else { centre };
+        for u in (-reach..=reach).step_by(step) {
+            for v in (-reach..=reach).step_by(step) {
+                let pose = shifted(centre, u, v);
+                let m = misfit(&pose);
+                if m < best.0 {
+                    best = (m, pose);
+                }
+            }
+        }
+    }
+    best.1
+}
+
+/// Voxels each way the turned placement is shifted (see [`best_shift`]).
+const SHIFT_SEARCH: i32 = 4;
+
+/// Samples the shifts are scored on.
+const SHIFT_SAMPLES: usize = 48;
+
+/// How far one alignment goes.
+#[derive(Clone, Copy)]
+struct Run {
+    /// Every this many samples.
+    stride: usize,
+    /// Iterations at most; the gate closes over the first half.
+    iterations: usize,
+}
+
+/// Comparing placements: a quarter of the samples, a few iterations.
+const QUICK: Run = Run {
+    stride: 4,
+    iterations: 8,
+};
+
+/// The placement reported.
+const FULL: Run = Run {
+    stride: 1,
+    iterations: 20,
+};
+
+/// Iterative closest points from `start`. A sample is paired only with
+/// surface facing its way, never with the far side of a thin plate; which
+/// way is "its way" (the scene's triangles may be wound the other way, an
+/// inverted export) is the majority's in the first iteration.
+fn icp(
+    samples: &SurfaceSamples,
+    scene: &SurfaceIndex,
+    start: Rigid,
+    voxel: f64,
+    run: Run,
+) -> Alignment {
+    let mut pose = start;
+    let mut facing = 0.0;
+    for iteration in 0..run.iterations {
+        let share = iteration as f64 / (run.iterations / 2).max(1) as f64;
+        let gate = voxel * (START_GATE + (FINAL_GATE - START_GATE) * share.min(1.0));
+        let near: Vec<(Vec3, Vec3, Vec3, f64)> = samples
+            .points
+            .iter()
+            .zip(&samples.normals)
+            .step_by(run.stride)
+            .filter_map(|(&p, &n)| {
+                let p = pose.apply(p);
+                let (q, m, _) = scene.nearest(p, gate)?;
+                Some((p, q, m, (pose.rotation * n).dot(m)))
+            })
+            .collect();
+        if facing == 0.0 {
+            let sum: f64 = near.iter().map(|n| n.3.signum()).sum();
+            facing = if sum < 0.0 { -1.0 } else { 1.0 };
+        }
+        let pairs: Vec<(Vec3, Vec3, Vec3)> = near
+            .iter()
+            .filter(|n| facing * n.3 >= NORMAL_COSINE)
+            .map(|n| (n.0, n.1, n.2))
+            .collect();
+        if pairs.len() < 6 {
+            break;
+        }
+        let pivot = pairs.iter().fold(Vec3::ZERO, |s, (p, _, _)| s + *p) / pairs.len() as f64;
+        let Some((turn, shift)) = solve_step(&pairs, pivot, voxel) else {
+            break;
+        };
+        let rotation = DMat3::from_quat(DQuat::from_scaled_axis(turn));
+        pose = Rigid {
+            rotation: rotation * pose.rotation,
+            translation: rotation * (pose.translation - pivot) + pivot + shift,
+        };
+        // Converged: the rim moves by a hundredth of a voxel.
+        if turn.length() < 1e-4 && shift.length() < 1e-2 * voxel {
+            break;
+        }
+    }
+    let (mut misfit, mut total) = (0.0, 0usize);
+    for p in samples.points.iter().step_by(run.stride) {
+        total += 1;
+        misfit += scene.nearest(pose.apply(*p), voxel).map_or(voxel, |n| n.2) / voxel;
+    }
+    Alignment {
+        pose,
+        misfit: misfit / total.max(1) as f64,
+    }
+}
+
+/// The small turn (scaled axis) about `pivot` and shift that best lay the
+/// placed points on their closest points' planes (Gauss-Newton, with a
+/// weighted point-to-point term), or `None` when the system is singular.
+fn solve_step(pairs: &[(Vec3, Vec3, Vec3)], pivot: Vec3, voxel: f64) -> Option<(Vec3, Vec3)> {
+    let mut a = [[0.0f64; 6]; 6];
+    let mut b = [0.0f64; 6];
+    // Lengths in voxels keep the rotation and translation columns alike.
+    let scale = 1.0 / voxel;
+    let mut add = |j: [f64; 6], r: f64, w: f64| {
+        for i in 0..6 {
+            for k in 0..6 {
+                a[i][k] += w * j[i] * j[k];
+            }
+            b[i] -= w * j[i] * r;
+        }
+    };
+    for &(p, q, n) in pairs {
+        let d = (p - pivot) * scale;
+        let r = (p - q) * scale;
+        let c = d.cross(n);
+        add([c.x, c.y, c.z, n.x, n.y, n.z], r.dot(n), 1.0);
+        for (k, e) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+            let c = d.cross(e);
+            add([c.x, c.y, c.z, e.x, e.y, e.z], r[k], POINT_WEIGHT);
+        }
+    }
+    let x = solve6(a, b)?;
+    Some((
+        Vec3::new(x[0], x[1], x[2]),
+        Vec3::new(x[3], x[4], x[5]) * voxel,
+    ))
+}
+
+/// Solves a 6x6 system by Gaussian elimination with partial pivoting.
+fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
+    for col in 0..6 {
+        let pivot = (col..6).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-12 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..6 {
+            let f = a[row][col] / a[col][col];
+            for k in col..6 {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 6];
+    for row in (0..6).rev() {
+        let s: f64 = (row + 1..6).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    Some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::cuboid;
+
+    fn corners(mesh: &crate::mesh::TriMesh) -> Vec<[Vec3; 3]> {
+        (0..mesh.triangles().len())
+            .map(|t| mesh.corners(t))
+            .collect()
+    }
+
+    fn index(tris: Vec<[Vec3; 3]>, voxel: f64) -> SurfaceIndex {
+        let b = Aabb::around(tris.iter().flatten().copied()).unwrap();
+        let pad = Vec3::splat(4.0 * voxel);
+        SurfaceIndex::new(
+            tris,
+            Aabb {
+                min: b.min - pad,
+                max: b.max + pad,
+            },
+            2.0 * voxel,
+        )
+    }
+
+    fn angle(a: DMat3, b: DMat3) -> f64 {
+        let e = a * b.transpose();
+        ((e.x_axis.x + e.y_axis.y + e.z_axis.z - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+    }
+
+    /// An asymmetric block (an L of two boxes) placed by a known pose is
+    /// recovered from a start a voxel and a few degrees off.
+    #[test]
+    fn a_pose_off_by_a_voxel_and_degrees_is_recovered() {
+        let mut template = cuboid(Vec3::ZERO, Vec3::new(4.0, 1.0, 1.0));
+        template.append(&cuboid(Vec3::ZERO, Vec3::new(1.0, 2.5, 1.0)));
+        let tris = corners(&template);
+        let truth = Rigid {
+            rotation: DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.4, -0.9, 1.3)),
+            translation: Vec3::new(10.0, -3.0, 2.0),
+        };
+        let scene: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|p| truth.apply(p))).collect();
+        let voxel = 0.1;
+        let samples = SurfaceSamples::new(&tris, 2000, |_| true);
+        let start = Rigid {
+            rotation: DMat3::from_quat(DQuat::from_scaled_axis(Vec3::new(0.03, -0.02, 0.04)))
+                * truth.rotation,
+            translation: truth.translation + Vec3::new(0.08, -0.05, 0.06),
+        };
+        let a = align(&samples, &index(scene, voxel), start, voxel);
+        assert!(angle(a.pose.rotation, truth.rotation).to_degrees() < 0.1);
+        assert!((a.pose.translation - truth.translation).length() < 0.01);
+        assert!(a.misfit < 0.01, "{}", a.misfit);
+    }
+
+    /// A plate whose one face carries a rib, found the other side up, is
+    /// turned over: the half-turn lays more of it on the scene.
+    #[test]
+    fn a_plate_found_upside_down_is_turned_over() {
+        let mut template = cuboid(Vec3::ZERO, Vec3::new(8.0, 0.4, 2.0));
+        template.append(&cuboid(Vec3::new(0.0, 0.4, 0.0), Vec3::new(8.0, 0.7, 0.3)));
+        let tris = corners(&template);
+        let truth = Rigid {
+            rotation: DMat3::from_rotation_z(0.3),
+            translation: Vec3::new(1.0, 2.0, 3.0),
+        };
+        let scene: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|p| truth.apply(p))).collect();
+        let voxel = 0.1;
+        let samples = SurfaceSamples::new(&tris, 3000, |_| true);
+        // Upside down about the plate's long axis through its middle.
+        let flip = Rigid::half_turn(Vec3::new(4.0, 0.2, 1.0), Vec3::X);
+        let start = truth.after(&flip);
+        let a = align(&samples, &index(scene, voxel), start, voxel);
+        assert!(angle(a.pose.rotation, truth.rotation).to_degrees() < 0.5);
+        assert!((a.pose.translation - truth.translation).length() < 0.05);
+    }
+
+    #[test]
+    fn rows_round_trip() {
+        let r = Rigid {
+            rotation: DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.1, 0.2, 0.3)),
+            translation: Vec3::new(1.0, 2.0, 3.0),
+        };
+        let back = Rigid::from_rows(&r.to_rows());
+        assert!((back.rotation - r.rotation).abs_diff_eq(DMat3::ZERO, 1e-12));
+        assert_eq!(back.translation, r.translation);
+        let p = Vec3::new(0.5, -1.0, 2.0);
+        let m = r.to_rows();
+        let q = Vec3::new(
+            m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+            m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+            m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3],
+        );
+        assert!((q - r.apply(p)).length() < 1e-12);
+    }
+}
