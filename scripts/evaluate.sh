@@ -4,7 +4,8 @@
 # Selection scenes (select-*) are searched with their truth.json sphere and
 # scored with --select. Exits non-zero when a scene is not found perfectly,
 # unless --report-only. FAST_REJECT_MATCH_ARGS adds flags to every search
-# (e.g. "--descriptor curvature").
+# (e.g. "--descriptor curvature"); FAST_REJECT_SCENES names another folder
+# of scenes (scripts/make-more-scenes.sh).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 shared=${FAST_REJECT_SHARED:-$here/../shared}
@@ -15,7 +16,7 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 failed=0
 for name in "$@"; do
-  dir=$shared/scenes/$name
+  dir=${FAST_REJECT_SCENES:-$shared/scenes}/$name
   if [[ $name == select-* ]]; then
     sel=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['select']; print(','.join(map(repr, s['center'] + [s['radius']])))" "$dir/truth.json")
     "$bin" match "$dir/scene.glb" --select="$sel" --json ${FAST_REJECT_MATCH_ARGS:-} > "$out/$name.json"

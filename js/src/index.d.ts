@@ -68,6 +68,8 @@ export interface MatchOptions {
   hiddenSurface?: number;
   /** Least number of voxels a voxel template's bounding radius spans: a smaller template refines the grid; 0 keeps the scene's resolution (default 32). */
   templateVoxels?: number;
+  /** One candidate point per cube of this many voxels a side; 1 makes every skin voxel a candidate (default 2). */
+  candidateSpacing?: number;
 }
 
 /** Every option's default, as the core defines them. */

@@ -17,6 +17,7 @@ use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
+use crate::voxel::spaced;
 
 /// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
 /// part by part: each connected part of the scene large enough to hold a
@@ -89,12 +90,13 @@ pub(super) fn search_voxels(
             &fresh
         };
         let t1 = now_ms();
+        let candidates = spaced(voxels.skin(), options.candidate_spacing as u16);
         let mut estimate = held.clone();
-        estimate.add("candidate state", candidate_bytes(voxels.skin().len()));
+        estimate.add("candidate state", candidate_bytes(candidates.len()));
         estimate.check(scene.memory_budget(), || {
             format!(
-                "a part has {} candidate points (skin voxels) at resolution {}: lower the resolution (they fall with its square), or raise the memory budget",
-                voxels.skin().len(),
+                "a part has {} candidate points at resolution {}: lower the resolution (they fall with its square), raise the candidate spacing, or raise the memory budget",
+                candidates.len(),
                 lattice.resolution
             )
         })?;
@@ -133,7 +135,6 @@ pub(super) fn search_voxels(
         if let Some(h) = &harmonics {
             stages.push(h);
         }
-        let candidates = (0..voxels.skin().len() as u32).collect();
         let (survivors, stats) = run_cascade(&stages, candidates, backend, observer)?;
         let t2 = now_ms();
         let position = |p| voxels.position(p);

@@ -16,7 +16,7 @@ pub use ball::Ball;
 pub use fill::fill_solid;
 pub use grid::{Grid, GridSpec, PADDING};
 pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};
-pub use skin::{dilate, skin};
+pub use skin::{dilate, skin, spaced};
 pub use surface::voxelize_surface;
 
 use crate::exec::Backend;

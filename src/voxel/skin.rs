@@ -5,6 +5,31 @@
 use super::grid::Grid;
 use crate::exec::Backend;
 
+/// One voxel of `skin` (sorted by (z, y, x)) per cube of `spacing`
+/// voxels a side: the first in that order. The indices of those kept, in
+/// order.
+pub fn spaced(skin: &[[u16; 3]], spacing: u16) -> Vec<u32> {
+    if spacing <= 1 {
+        return (0..skin.len() as u32).collect();
+    }
+    let s = spacing as usize;
+    let cells = |i: usize| skin.iter().map(|v| v[i] as usize / s).max().unwrap_or(0) + 1;
+    let (nx, ny) = (cells(0), cells(1));
+    // Each column of cubes remembers the last layer of cubes it gave a
+    // voxel to (plus one): z never falls along the list.
+    let mut taken = vec![0u32; nx * ny];
+    let mut kept = Vec::with_capacity(skin.len() / (s * s) + 1);
+    for (i, v) in skin.iter().enumerate() {
+        let column = v[1] as usize / s * nx + v[0] as usize / s;
+        let layer = (v[2] as usize / s) as u32 + 1;
+        if taken[column] != layer {
+            taken[column] = layer;
+            kept.push(i as u32);
+        }
+    }
+    kept
+}
+
 /// The skin of a solid grid (voxels outside the grid count as empty).
 pub fn skin(solid: &Grid, backend: Backend) -> Grid {
     let [_, ny, nz] = solid.dims();

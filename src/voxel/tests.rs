@@ -199,3 +199,35 @@ fn the_open_bunny_fills_like_its_winding_number() {
         "{agree} of {total} agree"
     );
 }
+
+#[test]
+fn spaced_skin_keeps_one_voxel_per_cube() {
+    use super::spaced;
+    // A plane of skin voxels at z = 3 and a few at z = 4, in (z, y, x) order.
+    let mut skin = Vec::new();
+    for z in 3..5u16 {
+        for y in 0..6u16 {
+            for x in 0..6u16 {
+                if z == 3 || x < 2 {
+                    skin.push([x, y, z]);
+                }
+            }
+        }
+    }
+    assert_eq!(spaced(&skin, 1), (0..skin.len() as u32).collect::<Vec<_>>());
+    let kept: Vec<[u16; 3]> = spaced(&skin, 2).iter().map(|&i| skin[i as usize]).collect();
+    // z = 3 lies in the cube layer 1 alone; z = 4 in layer 2.
+    let mut cubes: Vec<[u16; 3]> = kept.iter().map(|v| v.map(|c| c / 2)).collect();
+    cubes.sort();
+    cubes.dedup();
+    assert_eq!(cubes.len(), kept.len(), "one voxel per cube");
+    assert_eq!(kept.iter().filter(|v| v[2] == 3).count(), 9);
+    assert_eq!(kept.iter().filter(|v| v[2] == 4).count(), 3);
+    // Every skin voxel is within a cube's diagonal of a kept one.
+    for v in &skin {
+        assert!(
+            kept.iter()
+                .any(|k| (0..3).all(|i| k[i].abs_diff(v[i]) <= 1))
+        );
+    }
+}
