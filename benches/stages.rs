@@ -1,5 +1,6 @@
-//! Per-stage timings on every shared scene: load, voxelize, template, every
-//! layer of every stage, group, total.
+//! Per-stage timings on every shared scene, the real CAD ones included:
+//! load, voxelize, template, every layer of every stage, group, total, and
+//! the peak of heap memory during the search.
 //!
 //! `cargo bench --bench stages` runs each scene `FAST_REJECT_BENCH_RUNS`
 //! times (default 3) and prints the fastest run of each, so that figures
@@ -14,14 +15,54 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
+#[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
 
+/// The system allocator, counting the bytes held and their peak (not in
+/// the JavaScript binding's build, which counts with its own).
+#[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+struct Counting;
+
+static HELD: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+#[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: forwarded unchanged to the system allocator.
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            let held = HELD.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
+            PEAK.fetch_max(held, Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(p, layout) };
+        HELD.fetch_sub(layout.size(), Ordering::Relaxed);
+    }
+}
+
+#[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// A scene's fastest run and the peak heap of its runs (MiB).
+struct Measured {
+    report: MatchReport,
+    peak_mib: f64,
+}
+
 /// (scene, true for a selection query)
-const SCENES: [(&str, bool); 7] = [
+const SCENES: [(&str, bool); 9] = [
     ("zoo-bunny", false),
     ("remeshed-cow", false),
     ("crowd-rocker", false),
@@ -29,6 +70,8 @@ const SCENES: [(&str, bool); 7] = [
     ("fused-homer", false),
     ("cluttered-bunny", false),
     ("twisted-homer", false),
+    ("real-saw-fin", false),
+    ("real-saw-roller", false),
 ];
 
 fn main() {
@@ -66,12 +109,20 @@ fn main() {
         if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
             continue;
         }
+        PEAK.store(HELD.load(Ordering::Relaxed), Ordering::Relaxed);
         let best = (0..runs)
             .map(|_| run(name, select, &options))
             .min_by(|a, b| a.timings.total().total_cmp(&b.timings.total()))
             .unwrap();
+        let peak_mib = PEAK.load(Ordering::Relaxed) as f64 / (1024.0 * 1024.0);
         print_scene(name, &best);
-        summary.push((name, best));
+        summary.push((
+            name,
+            Measured {
+                report: best,
+                peak_mib,
+            },
+        ));
     }
     let curvature = options.descriptor == DescriptorKind::Curvature;
     stage_table(&summary, curvature);
@@ -80,31 +131,41 @@ fn main() {
     }
 }
 
-/// One row per scene: candidate points and milliseconds per stage (the
-/// scene's preparation is voxelization, or the weld for curvature).
-fn stage_table(summary: &[(&str, MatchReport)], curvature: bool) {
+/// One row per scene: candidate points, milliseconds per stage (the
+/// scene's preparation is voxelization, or the weld for curvature) and
+/// the heap's peak, the scene and its mesh included.
+fn stage_table(summary: &[(&str, Measured)], curvature: bool) {
     let (points, prepare) = if curvature {
         ("vertices", "weld")
     } else {
         ("skin voxels", "voxelize")
     };
     println!(
-        "| scene | {points} | load | {prepare} | template | match | group | total (ms) | instances |"
+        "| scene | {points} | candidates | load | {prepare} | template | match | group | total (ms) | peak heap MiB | instances |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for (name, r) in summary {
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, m) in summary {
+        let r = &m.report;
         let t = &r.timings;
-        let candidates = (r.grid.as_ref().map(|g| g.skin_voxels))
+        let points = (r.grid.as_ref().map(|g| g.skin_voxels))
             .or(r.surface.as_ref().map(|s| s.vertices))
             .unwrap_or(0);
+        // Layer 1 of the first stage sees every candidate.
+        let candidates: usize = r
+            .stages
+            .iter()
+            .filter(|s| s.layer == 1 && s.descriptor == r.stages[0].descriptor)
+            .map(|s| s.candidates)
+            .sum();
         println!(
-            "| {name} | {candidates} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
+            "| {name} | {points} | {candidates} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
             t.load,
             t.voxelize + t.surface,
             t.template,
             t.match_,
             t.group,
             t.total(),
+            m.peak_mib,
             r.instances.len()
         );
     }
@@ -112,10 +173,10 @@ fn stage_table(summary: &[(&str, MatchReport)], curvature: bool) {
 
 /// Microseconds per candidate for each layer of each pass (the sample
 /// pass and the final one): how the cost grows with the radius.
-fn per_candidate_table(summary: &[(&str, MatchReport)]) {
+fn per_candidate_table(summary: &[(&str, Measured)]) {
     let layers = summary
         .iter()
-        .flat_map(|(_, r)| r.stages.iter().map(|s| s.layer))
+        .flat_map(|(_, m)| m.report.stages.iter().map(|s| s.layer))
         .max()
         .unwrap_or(0);
     print!("\n| scene (us per candidate) | pass |");
@@ -123,8 +184,12 @@ fn per_candidate_table(summary: &[(&str, MatchReport)]) {
         print!(" layer {l} |");
     }
     println!("\n|---|---|{}", "---:|".repeat(layers));
-    for (name, r) in summary {
-        for pass in r.stages.chunk_by(|a, b| a.descriptor == b.descriptor) {
+    for (name, m) in summary {
+        for pass in m
+            .report
+            .stages
+            .chunk_by(|a, b| a.descriptor == b.descriptor)
+        {
             print!("| {name} | {} |", pass[0].descriptor);
             for s in pass {
                 print!(" {:.0} |", 1000.0 * s.ms / s.candidates.max(1) as f64);
