@@ -173,6 +173,22 @@ fn main() {
             show(offset),
             format!("{hit}/{}", targets.len())
         );
+        // Each false hit: how far from the nearest copy, and its score.
+        for i in &report.instances {
+            let p = Vec3::from_array(i.position);
+            let nearest = targets
+                .iter()
+                .map(|t| p.distance(*t))
+                .fold(f64::INFINITY, f64::min);
+            if nearest >= tolerance {
+                println!(
+                    "      false hit {:.2} r from a copy, score {:.3}, distance {:.3}",
+                    nearest / radius,
+                    i.score.unwrap_or(f64::NAN),
+                    i.distance
+                );
+            }
+        }
     }
     println!("every instance and no false positive in {clean} of {trials} placements");
 }

@@ -164,7 +164,9 @@ impl Verifier {
                     (s[2] as i64 - a[2]) as f64,
                 )
             })
-            .filter(|p| p.length() <= radius)
+            // The template within r_k of c_T: all of it, wherever the
+            // anchor is.
+            .filter(|p| p.distance(target) <= radius)
             .collect();
         Verifier {
             explains: dilate(near_surface, backend),

@@ -39,7 +39,7 @@ pub(super) fn search_voxels(
     } else {
         scene.lattice()
     };
-    let template = VoxelTemplate::new(source, scene, &lattice, options.layers, options.backend)?;
+    let template = VoxelTemplate::new(source, scene, &lattice, options)?;
     let radii = template.radii();
     let (tvoxels, tvoxel, backend) = (template.voxels(), template.voxel(), options.backend);
     let voxel = lattice.spec.voxel_size;

@@ -16,6 +16,7 @@
 //! scene's candidates; the curvature descriptor at the mesh vertex nearest to
 //! c_T ([`CurvatureTemplate`]), for the same reason.
 
+mod anchor;
 mod curvature;
 mod voxel;
 

@@ -5,11 +5,17 @@ use super::*;
 use crate::exec::Backend;
 use crate::mesh::shapes::{cuboid, uv_sphere};
 use crate::scene::SceneOptions;
+use crate::search::MatchOptions;
 
 /// [`VoxelTemplate::new`] as every test here calls it: the one place to change
 /// when its signature does.
 fn voxel_template(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<VoxelTemplate> {
-    VoxelTemplate::new(source, scene, &scene.lattice(), layers, Backend::Serial)
+    let options = MatchOptions {
+        layers,
+        backend: Backend::Serial,
+        ..MatchOptions::DEFAULT
+    };
+    VoxelTemplate::new(source, scene, &scene.lattice(), &options)
 }
 
 /// [`CurvatureTemplate::new`], likewise.

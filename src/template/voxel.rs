@@ -2,15 +2,16 @@
 //! its descriptors are read from (its own anchor part's for a model, the
 //! selected scene part's for a selection).
 
+use super::anchor::{Thresholds, stable_anchor};
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
 use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::error::{Error, Result};
-use crate::exec::Backend;
-use crate::math::{Vec3, from_f32};
+use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
+use crate::search::{DescriptorKind, MatchOptions};
 use crate::voxel::GridSpec;
 
 /// A template prepared against a scene.
@@ -45,9 +46,9 @@ impl VoxelTemplate {
         source: &TemplateSource,
         scene: &Scene,
         lattice: &Lattice,
-        layers: usize,
-        backend: Backend,
+        options: &MatchOptions,
     ) -> Result<VoxelTemplate> {
+        let (layers, backend) = (options.layers, options.backend);
         check_layers(layers)?;
         let voxel_size = lattice.spec.voxel_size;
         let (center, radius, voxels, scene_part, parts, min_part_radius, voxel) = match source {
@@ -60,6 +61,15 @@ impl VoxelTemplate {
                     Parts::OverlappingBoxes
                 };
                 let spec = GridSpec::around(model.bounds(), voxel_size)?;
+                // The anchor's test voxelizes it turned: within the cube
+                // around its bounding sphere.
+                let turned = GridSpec::around(
+                    Aabb {
+                        min: sphere.center - Vec3::splat(sphere.radius),
+                        max: sphere.center + Vec3::splat(sphere.radius),
+                    },
+                    voxel_size,
+                )?;
                 check_voxel_work(
                     "template",
                     model,
@@ -73,7 +83,11 @@ impl VoxelTemplate {
                         "the template's mesh",
                         mesh_bytes(model.positions().len(), model.triangles().len()),
                     )
-                    .add("the template's voxel grids", voxel_bytes(&spec));
+                    .add("the template's voxel grids", voxel_bytes(&spec))
+                    .add(
+                        "the template turned (its anchor's test)",
+                        voxel_bytes(&turned),
+                    );
                 estimate.check(scene.memory_budget(), || {
                     format!(
                         "lower the resolution (now {}), or raise the memory budget",
@@ -85,14 +99,32 @@ impl VoxelTemplate {
                 // with overlapping shells, the nearest point of a mesh may be
                 // buried inside another shell. So: the nearest skin voxel,
                 // then the mesh point nearest to it.
-                let voxel = nearest_voxel(&spec, voxels.skin(), sphere.center)
+                let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center)
                     .expect("a voxelized mesh has skin");
-                let center = model.closest_point(spec.center(voxel)).point;
+                let center = model.closest_point(spec.center(nearest)).point;
                 let radius = model
                     .positions()
                     .iter()
                     .map(|&p| from_f32(p).distance(center))
                     .fold(0.0, f64::max);
+                let voxel = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
+                    // Refused below; nothing to read.
+                    nearest
+                } else {
+                    stable_anchor(
+                        model,
+                        &voxels,
+                        nearest,
+                        &evenly_spaced(radius, layers),
+                        Thresholds {
+                            volume: (options.descriptor != DescriptorKind::Harmonics)
+                                .then_some(options.volume_threshold),
+                            harmonics: (options.descriptor != DescriptorKind::Volume)
+                                .then_some(options.harmonics_threshold),
+                        },
+                        backend,
+                    )?
+                };
                 let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
                 (center, radius, voxels, None, parts, min_part_radius, voxel)
             }

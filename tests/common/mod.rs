@@ -13,13 +13,7 @@ use fast_reject::template::TemplateSource;
 /// The folder of a shared scene; fails loudly when the shared data is absent,
 /// so that a missing checkout can never pass as success.
 pub fn scene_dir(name: &str) -> PathBuf {
-    // FAST_REJECT_SHARED: for sandboxes (wasmtime) that cannot follow
-    // ../shared by its path.
-    let shared = std::env::var("FAST_REJECT_SHARED").map_or_else(
-        |_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-        PathBuf::from,
-    );
-    let dir = shared.join("scenes").join(name);
+    let dir = shared_dir().join("scenes").join(name);
     assert!(
         dir.join("truth.json").exists(),
         "shared scene {} not found: this test needs the benchmark data, as ../shared beside \
@@ -27,6 +21,22 @@ pub fn scene_dir(name: &str) -> PathBuf {
         dir.display()
     );
     dir
+}
+
+/// `../shared`, or FAST_REJECT_SHARED: for sandboxes (wasmtime) that
+/// cannot follow ../shared by its path.
+fn shared_dir() -> PathBuf {
+    std::env::var("FAST_REJECT_SHARED").map_or_else(
+        |_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+        PathBuf::from,
+    )
+}
+
+/// The bytes of a shared model (`../shared/models`), failing loudly when
+/// the shared data is absent.
+pub fn model_bytes(file: &str) -> Vec<u8> {
+    let path = shared_dir().join("models").join(file);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("shared model {}: {e}", path.display()))
 }
 
 pub fn truth(name: &str) -> serde_json::Value {

@@ -138,10 +138,7 @@ impl<'a> HarmonicsDescriptor<'a> {
                 .map(|r| SphereSampler::new(r / voxel, solid, backend))
                 .collect(),
             radii: radii.to_vec(),
-            weights: radii
-                .iter()
-                .map(|r| (r / voxel).powi(2) / radii.len() as f64)
-                .collect(),
+            weights: layer_weights(radii, voxel),
             clutter: None,
             clean_layers: usize::MAX,
             template,
@@ -296,6 +293,27 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
             state.sum2.sqrt()
         }
     }
+}
+
+/// Each sphere's weight in the stage's distance: (R_j / voxel)^2 / k (see
+/// the module doc).
+fn layer_weights(radii: &[f64], voxel: f64) -> Vec<f64> {
+    radii
+        .iter()
+        .map(|r| (r / voxel).powi(2) / radii.len() as f64)
+        .collect()
+}
+
+/// The stage's distance between two points' signatures at `radii` (world
+/// units, voxels of `voxel`) when every sphere counts: what the threshold
+/// is compared with.
+pub fn harmonics_distance(a: &[Signature], b: &[Signature], radii: &[f64], voxel: f64) -> f64 {
+    layer_weights(radii, voxel)
+        .iter()
+        .zip(a.iter().zip(b))
+        .map(|(w, (x, y))| w * signature_distance2(x, y))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Squared L2 distance between two signatures.

@@ -1,0 +1,63 @@
+//! Where the template's descriptors are read: a c_T whose voxels change as
+//! the template turns is replaced by a steadier anchor, and copies at every
+//! orientation are found.
+
+mod common;
+
+use fast_reject::math::Vec3;
+use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load, search};
+use glam::DQuat;
+
+/// The Utah teapot scaled to a bounding radius of about 1: its lid sits on
+/// the open body, and around c_T (on the lid) the filled solid differs
+/// with the turn.
+fn teapot() -> TriMesh {
+    let mesh = load(&common::model_bytes("teapot.obj"), None).unwrap();
+    let b = mesh.bounds();
+    let (centre, half) = (b.center(), b.extent().length() / 2.0);
+    mesh.map_positions(|p| (p - centre) / half).unwrap()
+}
+
+#[test]
+fn teapots_turned_every_way_are_all_found() {
+    let template = teapot();
+    let turns: Vec<DQuat> = [
+        (0.0, 0.0, 1.0, 0.0),
+        (1.0, 0.0, 0.0, 1.9),
+        (0.3, 1.0, -0.5, 2.6),
+        (-1.0, 0.4, 0.7, 1.2),
+        (0.2, -0.6, 1.0, 3.0),
+        (1.0, 1.0, 0.0, 2.2),
+    ]
+    .iter()
+    .map(|&(x, y, z, a)| DQuat::from_axis_angle(Vec3::new(x, y, z).normalize(), a))
+    .collect();
+    let place = |i: usize, p: Vec3| turns[i] * p + Vec3::new(3.0 * i as f64, 0.0, 0.0);
+    let mut scene = template.map_positions(|p| place(0, p)).unwrap();
+    for i in 1..turns.len() {
+        scene.append(&template.map_positions(|p| place(i, p)).unwrap());
+    }
+    let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
+    let report = search(
+        &scene,
+        &TemplateSource::Model(template),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let c = Vec3::from_array(report.template.center);
+    let r = report.template.radius;
+    let truth: Vec<Vec3> = (0..turns.len()).map(|i| place(i, c)).collect();
+    let found: Vec<Vec3> = report
+        .instances
+        .iter()
+        .map(|i| Vec3::from_array(i.position))
+        .collect();
+    for (i, t) in truth.iter().enumerate() {
+        assert!(
+            found.iter().any(|p| p.distance(*t) < 0.2 * r),
+            "copy {i} missed: found {found:?}"
+        );
+    }
+    assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+}
