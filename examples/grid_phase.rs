@@ -2,7 +2,8 @@
 //! by random sub-voxel offsets (and, with `--turn`, turns it about its
 //! centre), searches each copy and scores it against the truth moved the
 //! same way. A search independent of the grid's phase finds the same
-//! instances every time (the real-scenes issue asks for it).
+//! instances every time (the real-scenes issue asks for it; `tests/phase.rs`
+//! asserts it on a generated scene).
 //!
 //! ```sh
 //! cargo run --release --example grid_phase -- zoo-bunny [--trials 10] [--seed 1]
@@ -11,20 +12,15 @@
 //!
 //! SCENE is a folder of `../shared/scenes` (or any folder with `scene.glb`,
 //! `template.glb` and `truth.json`). Prints a row per placement (its offset
-//! in voxels, true and false positives, milliseconds) and how many
-//! placements found every instance with no false positive.
+//! in voxels, true and false positives, milliseconds), each false hit, and
+//! how many placements found every instance with no false positive.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 use std::path::PathBuf;
-use std::time::Instant;
 
-use fast_reject::math::Vec3;
-use fast_reject::{
-    DescriptorKind, MatchOptions, Scene, SceneOptions, TemplateSource, load, search,
-};
-use serde_json::Value;
-
-/// A row-major 4x4 transform.
-type Matrix = [[f64; 4]; 4];
+use fast_reject::{DescriptorKind, MatchOptions, SceneOptions};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -41,8 +37,6 @@ fn main() {
     };
     let trials: usize = flag("--trials").map_or(10, |v| v.parse().expect("--trials N"));
     let seed: u64 = flag("--seed").map_or(1, |v| v.parse().expect("--seed S"));
-    // Never 0, which xorshift keeps at 0.
-    let mut rng = Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
     let turn = args.iter().any(|a| a == "--turn");
     let mut scene_options = SceneOptions::DEFAULT;
     if let Some(r) = flag("--resolution") {
@@ -54,242 +48,48 @@ fn main() {
             .parse::<DescriptorKind>()
             .unwrap_or_else(|e| panic!("{e}"));
     }
-
-    let dir = scene_dir(name);
-    let read = |file: &str| {
-        std::fs::read(dir.join(file))
-            .unwrap_or_else(|e| panic!("{}: {e}", dir.join(file).display()))
+    let path = PathBuf::from(name);
+    let dir = if path.join("scene.glb").exists() {
+        path
+    } else {
+        common::scene_dir(name)
     };
-    let mesh = load(&read("scene.glb"), None).expect("the scene loads");
-    let truth: Value = serde_json::from_slice(&read("truth.json")).expect("truth.json");
-    let selection = truth.get("select").cloned();
-    let template_mesh = match selection {
-        None => Some(load(&read("template.glb"), None).expect("the template loads")),
-        Some(_) => None,
-    };
-    let bounds = mesh.bounds();
-    let middle = (bounds.min + bounds.max) * 0.5;
-    let voxel = bounds.extent().max_element() / f64::from(scene_options.resolution);
-
     println!(
-        "{name}: {trials} placements, {} by up to a voxel ({voxel:.5}){}",
+        "{name}: {trials} placements, {} by up to a voxel",
         if turn {
             "turned about the centre and moved"
         } else {
             "moved"
-        },
-        if selection.is_some() {
-            ", a selection"
-        } else {
-            ""
         }
     );
     println!(
         "{:>5} {:>24} {:>6} {:>4} {:>9}",
         "trial", "offset (voxels)", "found", "fp", "ms"
     );
-    let mut clean = 0;
-    for trial in 0..trials {
-        let offset = Vec3::new(rng.unit(), rng.unit(), rng.unit());
-        let rotation = if turn {
-            rng.rotation()
-        } else {
-            [Vec3::X, Vec3::Y, Vec3::Z]
-        };
-        // x -> R (x - m) + m + offset * voxel
-        let shift = middle + offset * voxel - rotate(&rotation, middle);
-        let place = |p: Vec3| rotate(&rotation, p) + shift;
-        let moved = mesh.map_positions(place).expect("a moved scene is a mesh");
-        let moved_truth = |t: &Value| compose(&matrix(&rotation, shift), &to_matrix(t));
-        let source = match (&selection, &template_mesh) {
-            (Some(s), _) => TemplateSource::Selection {
-                center: place(vec3(&s["center"])).to_array(),
-                radius: s["radius"].as_f64().unwrap(),
-            },
-            (None, Some(m)) => TemplateSource::Model(m.clone()),
-            (None, None) => unreachable!(),
-        };
-        let start = Instant::now();
-        let scene = Scene::new(moved, &scene_options).expect("the scene fits");
-        let result = search(&scene, &source, &options, &mut ());
-        let ms = start.elapsed().as_secs_f64() * 1e3;
-        let report = match result {
-            Ok(report) => report,
-            Err(e) => {
-                println!("{trial:>5} {:>24} error: {e}", show(offset));
-                continue;
+    let results = common::phase::placements(
+        &dir,
+        trials,
+        seed,
+        turn,
+        &scene_options,
+        &options,
+        |i, t| {
+            let offset = format!("({:.2}, {:.2}, {:.2})", t.offset.x, t.offset.y, t.offset.z);
+            if let Some(e) = &t.error {
+                println!("{i:>5} {offset:>24} error: {e}");
+                return;
             }
-        };
-        let (targets, radius): (Vec<Vec3>, f64) = match &selection {
-            Some(s) => (
-                s["expected"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|e| place(vec3(e)))
-                    .collect(),
-                s["radius"].as_f64().unwrap(),
-            ),
-            None => {
-                let c = Vec3::from_array(report.template.center);
-                let placed: Vec<Vec3> = truth["instances"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|t| apply(&moved_truth(&t["transform"]), c))
-                    .collect();
-                (
-                    placed,
-                    truth
-                        .get("template_radius")
-                        .and_then(Value::as_f64)
-                        .unwrap_or(1.0),
-                )
+            println!(
+                "{i:>5} {offset:>24} {:>6} {:>4} {:>9.0}",
+                format!("{}/{}", t.found, t.copies),
+                t.false_hits.len(),
+                t.ms
+            );
+            for (distance, score) in &t.false_hits {
+                println!("      false hit {distance:.2} r from a copy, score {score:.3}");
             }
-        };
-        let tolerance = truth
-            .get("tolerance")
-            .and_then(Value::as_f64)
-            .unwrap_or(0.2)
-            * radius;
-        let found: Vec<Vec3> = report
-            .instances
-            .iter()
-            .map(|i| Vec3::from_array(i.position))
-            .collect();
-        let hit = targets
-            .iter()
-            .filter(|t| found.iter().any(|p| p.distance(**t) < tolerance))
-            .count();
-        let false_positives = found
-            .iter()
-            .filter(|p| targets.iter().all(|t| p.distance(*t) >= tolerance))
-            .count();
-        if hit == targets.len() && false_positives == 0 {
-            clean += 1;
-        }
-        println!(
-            "{trial:>5} {:>24} {:>6} {false_positives:>4} {ms:>9.0}",
-            show(offset),
-            format!("{hit}/{}", targets.len())
-        );
-        // Each false hit: how far from the nearest copy, and its score.
-        for i in &report.instances {
-            let p = Vec3::from_array(i.position);
-            let nearest = targets
-                .iter()
-                .map(|t| p.distance(*t))
-                .fold(f64::INFINITY, f64::min);
-            if nearest >= tolerance {
-                println!(
-                    "      false hit {:.2} r from a copy, score {:.3}, distance {:.3}",
-                    nearest / radius,
-                    i.score.unwrap_or(f64::NAN),
-                    i.distance
-                );
-            }
-        }
-    }
-    println!("every instance and no false positive in {clean} of {trials} placements");
-}
-
-fn scene_dir(name: &str) -> PathBuf {
-    let path = PathBuf::from(name);
-    if path.join("scene.glb").exists() {
-        return path;
-    }
-    let shared = std::env::var("FAST_REJECT_SHARED").map_or_else(
-        |_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-        PathBuf::from,
+        },
     );
-    shared.join("scenes").join(name)
-}
-
-fn show(v: Vec3) -> String {
-    format!("({:.2}, {:.2}, {:.2})", v.x, v.y, v.z)
-}
-
-fn vec3(v: &Value) -> Vec3 {
-    Vec3::new(
-        v[0].as_f64().unwrap(),
-        v[1].as_f64().unwrap(),
-        v[2].as_f64().unwrap(),
-    )
-}
-
-fn rotate(rows: &[Vec3; 3], v: Vec3) -> Vec3 {
-    Vec3::new(rows[0].dot(v), rows[1].dot(v), rows[2].dot(v))
-}
-
-fn matrix(rows: &[Vec3; 3], shift: Vec3) -> Matrix {
-    let row = |i: usize| [rows[i].x, rows[i].y, rows[i].z, shift[i]];
-    [row(0), row(1), row(2), [0.0, 0.0, 0.0, 1.0]]
-}
-
-fn to_matrix(t: &Value) -> Matrix {
-    let mut m = [[0.0; 4]; 4];
-    for (r, row) in m.iter_mut().enumerate() {
-        for (c, value) in row.iter_mut().enumerate() {
-            *value = t[r][c].as_f64().unwrap();
-        }
-    }
-    m
-}
-
-fn compose(a: &Matrix, b: &Matrix) -> Matrix {
-    let mut m = [[0.0; 4]; 4];
-    for (r, row) in m.iter_mut().enumerate() {
-        for (c, value) in row.iter_mut().enumerate() {
-            *value = (0..4).map(|k| a[r][k] * b[k][c]).sum();
-        }
-    }
-    m
-}
-
-fn apply(m: &Matrix, p: Vec3) -> Vec3 {
-    let row = |r: usize| m[r][0] * p.x + m[r][1] * p.y + m[r][2] * p.z + m[r][3];
-    Vec3::new(row(0), row(1), row(2))
-}
-
-/// xorshift64*: reproducible placements from a seed, no dependency.
-struct Rng(u64);
-
-impl Rng {
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// A uniformly random rotation (rows), from a random unit quaternion.
-    fn rotation(&mut self) -> [Vec3; 3] {
-        let (u1, u2, u3) = (self.unit(), self.unit(), self.unit());
-        let tau = std::f64::consts::TAU;
-        let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
-        let (w, x, y, z) = (
-            a * (tau * u2).sin(),
-            a * (tau * u2).cos(),
-            b * (tau * u3).sin(),
-            b * (tau * u3).cos(),
-        );
-        [
-            Vec3::new(
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - w * z),
-                2.0 * (x * z + w * y),
-            ),
-            Vec3::new(
-                2.0 * (x * y + w * z),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - w * x),
-            ),
-            Vec3::new(
-                2.0 * (x * z - w * y),
-                2.0 * (y * z + w * x),
-                1.0 - 2.0 * (x * x + y * y),
-            ),
-        ]
-    }
+    let clean = results.iter().filter(|t| t.clean()).count();
+    println!("every instance and no false positive in {clean} of {trials} placements");
 }

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod phase;
+
 use std::path::PathBuf;
 
 use fast_reject::mesh::io::load;
