@@ -16,7 +16,7 @@
 use glam::{DMat3, DQuat};
 
 use crate::math::{Aabb, Vec3, symmetric_eigen};
-use crate::mesh::closest_point_on_triangle;
+use crate::mesh::{TriMesh, closest_point_on_triangle};
 
 /// Correspondences farther than this (voxels) are trimmed at the start; the
 /// gate then closes to [`FINAL_GATE`].
@@ -176,12 +176,14 @@ impl SurfaceSamples {
 }
 
 /// A scene's triangles near an occurrence, bucketed in a uniform grid for
-/// closest-point queries.
-pub struct SurfaceIndex {
-    triangles: Vec<[Vec3; 3]>,
-    normals: Vec<Vec3>,
+/// closest-point queries. It holds triangle numbers, not corners: a part
+/// of tens of thousands of triangles is indexed once per instance and
+/// thread.
+pub struct SurfaceIndex<'a> {
+    mesh: &'a TriMesh,
+    triangles: Vec<u32>,
     /// Each triangle's bounding sphere (centre of its box), to skip it.
-    spheres: Vec<(Vec3, f64)>,
+    spheres: Vec<([f32; 3], f32)>,
     origin: Vec3,
     cell: f64,
     dims: [i64; 3],
@@ -190,10 +192,15 @@ pub struct SurfaceIndex {
     members: Vec<u32>,
 }
 
-impl SurfaceIndex {
-    /// Indexes the parts of `triangles` inside `bounds`, in cells of side
-    /// `cell`.
-    pub fn new(triangles: Vec<[Vec3; 3]>, bounds: Aabb, cell: f64) -> SurfaceIndex {
+impl<'a> SurfaceIndex<'a> {
+    /// Indexes the parts of `mesh`'s `triangles` inside `bounds`, in cells
+    /// of side `cell`.
+    pub fn new(
+        mesh: &'a TriMesh,
+        triangles: Vec<u32>,
+        bounds: Aabb,
+        cell: f64,
+    ) -> SurfaceIndex<'a> {
         let dims = (bounds.extent() / cell)
             .ceil()
             .max(Vec3::ONE)
@@ -217,7 +224,8 @@ impl SurfaceIndex {
         };
         let index = |x: i64, y: i64, z: i64| ((z * dims[1] + y) * dims[0] + x) as usize;
         let mut counts = vec![0u32; cells + 1];
-        let ranges: Vec<_> = triangles.iter().map(range).collect();
+        // Each triangle's cells, worked out twice rather than stored.
+        let cells_of = |i: usize| range(&mesh.corners(triangles[i] as usize));
         let each_cell = |r: &([i64; 3], [i64; 3]), f: &mut dyn FnMut(usize)| {
             for z in r.0[2]..=r.1[2] {
                 for y in r.0[1]..=r.1[1] {
@@ -227,37 +235,41 @@ impl SurfaceIndex {
                 }
             }
         };
-        for r in ranges.iter().flatten() {
-            each_cell(r, &mut |c| counts[c + 1] += 1);
+        for i in 0..triangles.len() {
+            if let Some(r) = cells_of(i) {
+                each_cell(&r, &mut |c| counts[c + 1] += 1);
+            }
         }
         for c in 0..cells {
             counts[c + 1] += counts[c];
         }
         let mut fill = counts.clone();
         let mut members = vec![0u32; counts[cells] as usize];
-        for (t, r) in ranges.iter().enumerate() {
-            if let Some(r) = r {
-                each_cell(r, &mut |c| {
-                    members[fill[c] as usize] = t as u32;
+        for i in 0..triangles.len() {
+            if let Some(r) = cells_of(i) {
+                each_cell(&r, &mut |c| {
+                    members[fill[c] as usize] = i as u32;
                     fill[c] += 1;
                 });
             }
         }
-        let normals = triangles
-            .iter()
-            .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
-            .collect();
         let spheres = triangles
             .iter()
-            .map(|t| {
-                let b = Aabb::around(t.iter().copied()).expect("three corners");
+            .map(|&t| {
+                let corners = mesh.corners(t as usize);
+                let b = Aabb::around(corners).expect("three corners");
                 let c = b.center();
-                (c, t.iter().map(|&p| p.distance(c)).fold(0.0, f64::max))
+                let r = corners.iter().map(|&p| p.distance(c)).fold(0.0, f64::max);
+                // Rounded outwards: f32 must not cut a triangle off.
+                (
+                    c.as_vec3().to_array(),
+                    (r * (1.0 + 1e-5) + 1e-5 * c.abs().max_element()) as f32,
+                )
             })
             .collect();
         SurfaceIndex {
+            mesh,
             triangles,
-            normals,
             spheres,
             origin,
             cell,
@@ -298,10 +310,12 @@ impl SurfaceIndex {
                             &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
                         {
                             let (centre, radius) = self.spheres[t as usize];
-                            if p.distance(centre) - radius > bound {
+                            let centre =
+                                Vec3::new(centre[0] as f64, centre[1] as f64, centre[2] as f64);
+                            if p.distance(centre) - radius as f64 > bound {
                                 continue;
                             }
-                            let [a, b, cc] = self.triangles[t as usize];
+                            let [a, b, cc] = self.mesh.corners(self.triangles[t as usize] as usize);
                             let q = closest_point_on_triangle(p, a, b, cc, t as usize);
                             if q.distance2 <= bound * bound {
                                 bound = q.distance2.sqrt();
@@ -315,7 +329,10 @@ impl SurfaceIndex {
                 break;
             }
         }
-        best.map(|(q, t)| (q, self.normals[t], bound))
+        best.map(|(q, t)| {
+            let [a, b, c] = self.mesh.corners(self.triangles[t] as usize);
+            (q, (b - a).cross(c - a).normalize_or_zero(), bound)
+        })
     }
 }
 
@@ -562,17 +579,18 @@ mod tests {
     use super::*;
     use crate::mesh::shapes::cuboid;
 
-    fn corners(mesh: &crate::mesh::TriMesh) -> Vec<[Vec3; 3]> {
+    fn corners(mesh: &TriMesh) -> Vec<[Vec3; 3]> {
         (0..mesh.triangles().len())
             .map(|t| mesh.corners(t))
             .collect()
     }
 
-    fn index(tris: Vec<[Vec3; 3]>, voxel: f64) -> SurfaceIndex {
-        let b = Aabb::around(tris.iter().flatten().copied()).unwrap();
+    fn index(mesh: &TriMesh, voxel: f64) -> SurfaceIndex<'_> {
+        let b = mesh.bounds();
         let pad = Vec3::splat(4.0 * voxel);
         SurfaceIndex::new(
-            tris,
+            mesh,
+            (0..mesh.triangles().len() as u32).collect(),
             Aabb {
                 min: b.min - pad,
                 max: b.max + pad,
@@ -599,7 +617,7 @@ mod tests {
             rotation: DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.4, -0.9, 1.3)),
             translation: Vec3::new(10.0, -3.0, 2.0),
         };
-        let scene: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|p| truth.apply(p))).collect();
+        let scene = template.map_positions(|p| truth.apply(p)).unwrap();
         let voxel = 0.1;
         let samples = SurfaceSamples::new(&tris, 2000, |_| true);
         let start = Rigid {
@@ -607,7 +625,7 @@ mod tests {
                 * truth.rotation,
             translation: truth.translation + Vec3::new(0.08, -0.05, 0.06),
         };
-        let a = align(&samples, &index(scene, voxel), start, voxel);
+        let a = align(&samples, &index(&scene, voxel), start, voxel);
         assert!(angle(a.pose.rotation, truth.rotation).to_degrees() < 0.1);
         assert!((a.pose.translation - truth.translation).length() < 0.01);
         assert!(a.misfit < 0.01, "{}", a.misfit);
@@ -624,13 +642,13 @@ mod tests {
             rotation: DMat3::from_rotation_z(0.3),
             translation: Vec3::new(1.0, 2.0, 3.0),
         };
-        let scene: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|p| truth.apply(p))).collect();
+        let scene = template.map_positions(|p| truth.apply(p)).unwrap();
         let voxel = 0.1;
         let samples = SurfaceSamples::new(&tris, 3000, |_| true);
         // Upside down about the plate's long axis through its middle.
         let flip = Rigid::half_turn(Vec3::new(4.0, 0.2, 1.0), Vec3::X);
         let start = truth.after(&flip);
-        let a = align(&samples, &index(scene, voxel), start, voxel);
+        let a = align(&samples, &index(&scene, voxel), start, voxel);
         assert!(angle(a.pose.rotation, truth.rotation).to_degrees() < 0.5);
         assert!((a.pose.translation - truth.translation).length() < 0.05);
     }

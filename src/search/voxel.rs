@@ -264,16 +264,18 @@ fn align_instances(
             min: p - Vec3::splat(reach),
             max: p + Vec3::splat(reach),
         };
-        let triangles: Vec<[Vec3; 3]> = part
+        let triangles: Vec<u32> = part
             .triangles()
             .iter()
-            .map(|&t| mesh.corners(t as usize))
-            .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(p) <= reach))
+            .copied()
+            .filter(|&t| {
+                Aabb::around(mesh.corners(t as usize)).is_some_and(|b| b.distance_to(p) <= reach)
+            })
             .collect();
         // Cells of 1.5 voxels, or of a 48th of the box for a template of
         // many: queries reach a voxel or three.
         let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
-        let index = SurfaceIndex::new(triangles, bounds, cell);
+        let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
         Some(align(samples, &index, start, voxel).pose)
     });
     for (instance, pose) in instances.iter_mut().zip(refined) {
