@@ -9,9 +9,10 @@
 //! closest points (point-to-plane, with a light point-to-point term that
 //! keeps a turn about a symmetry axis from drifting), trimmed so that what
 //! lies farther than a voxel or two (clutter, missing material) does not
-//! pull. The template turned by half a turn about each of its principal
-//! axes is aligned too: the one that lays more samples on the scene wins,
-//! the placement found first on a tie.
+//! pull. Unless the first fit is already exact, the template turned by half
+//! a turn about each of its principal axes is aligned too, and replaces the
+//! first when its samples lie clearly nearer the scene: a template found
+//! upside down is turned back, a symmetric one keeps the first fit.
 
 use glam::{DMat3, DQuat};
 
@@ -29,7 +30,8 @@ const FINAL_GATE: f64 = 1.0;
 const POINT_WEIGHT: f64 = 0.1;
 
 /// Correspondences whose normals differ by more than this are trimmed
-/// (cosine, after [`facing`]).
+/// (cosine, once the majority has told which way the scene faces: see
+/// [`icp`]).
 const NORMAL_COSINE: f64 = 0.5;
 
 /// A turned alignment replaces the placement found first when its misfit
@@ -409,9 +411,8 @@ fn best_shift(
         translation: centre.translation + e1 * u as f64 + e2 * v as f64,
         ..centre
     };
-    let n = SHIFT_SEARCH;
-    for (centre, reach, step) in [(turned, n, 2), (Rigid { ..turned }, 1, 1)] {
-        let centre = if step == 1 { best.1 } else { centre };
+    for (reach, step) in [(SHIFT_SEARCH, 2), (1, 1)] {
+        let centre = best.1;
         for u in (-reach..=reach).step_by(step) {
             for v in (-reach..=reach).step_by(step) {
                 let pose = shifted(centre, u, v);
