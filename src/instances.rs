@@ -26,9 +26,9 @@ pub struct Instance {
     pub position: [f64; 3],
     /// Its final descriptor distance.
     pub distance: f64,
-    /// Verification score: the placed template's surface agreement with the
-    /// scene (0..1); None where the descriptor has no verification
-    /// (curvature).
+    /// Verification score: the share of the template's surface that lies
+    /// on the scene's at the instance's pose (0..1); None where the
+    /// descriptor has no verification (curvature).
     pub score: Option<f64>,
     /// How many surviving points the instance gathered.
     pub support: usize,

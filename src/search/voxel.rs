@@ -5,7 +5,7 @@
 
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
-use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align};
+use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
 use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
 use crate::clock::now_ms;
@@ -14,7 +14,7 @@ use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescripto
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
 use crate::math::{Aabb, Vec3};
-use crate::scene::{Lattice, Parts, Scene, ScenePart};
+use crate::scene::{Lattice, PartVoxels, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 use crate::voxel::spaced;
@@ -56,6 +56,7 @@ pub(super) fn search_voxels(
     let template_harmonics = (options.descriptor != DescriptorKind::Volume).then(|| {
         HarmonicsDescriptor::describe(tvoxels.solid(), tvoxel, radii, &transform, backend)
     });
+    let max_hidden = options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. }));
     let verifier = Verifier::new(
         tvoxels.solid(),
         tvoxels.skin(),
@@ -63,7 +64,7 @@ pub(super) fn search_voxels(
         tvoxel,
         template.center_offset(),
         &radii_voxels,
-        options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. })),
+        max_hidden,
         backend,
     );
     let reach = template.radius() / voxel;
@@ -175,11 +176,14 @@ pub(super) fn search_voxels(
             &mut instances,
             scene,
             part,
+            voxels,
             &samples,
             &template,
-            voxel,
+            max_hidden,
             backend,
         );
+        // The meshes' verdict at the exact pose.
+        instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
         found.instances.extend(instances);
         found.add_stats(stats);
         found.skin_voxels += voxels.skin().len();
@@ -242,21 +246,32 @@ const ALIGN_SAMPLES: usize = 1024;
 
 /// Refines each instance's pose on the meshes ([`crate::align`]): the
 /// template's samples onto `part`'s triangles around the instance. The
-/// instance's position follows its pose.
+/// instance's position follows its pose, and its score falls to the share
+/// of the template's surface that lands on the scene's there (what lands
+/// inside `voxels`' solid is hidden, up to `max_hidden`).
+#[allow(clippy::too_many_arguments)]
 fn align_instances(
     instances: &mut [Instance],
     scene: &Scene,
     part: &ScenePart,
+    voxels: &PartVoxels,
     samples: &SurfaceSamples,
     template: &VoxelTemplate,
-    voxel: f64,
+    max_hidden: f64,
     backend: crate::exec::Backend,
 ) {
     if samples.is_empty() {
         return;
     }
     let mesh = scene.mesh();
+    let voxel = voxels.grid().spec().voxel_size;
     let reach = template.radius() + 4.0 * voxel;
+    let tolerance = SURFACE_TOLERANCE * template.radius();
+    // Inside the solid, and a voxel clear of its surface.
+    let hidden = |p: Vec3| {
+        let v = voxels.grid().spec().voxel_of(p);
+        voxels.grid().get(v[0], v[1], v[2]) && !voxels.near_surface().get(v[0], v[1], v[2])
+    };
     let refined = backend.map_each(instances.len(), |i| {
         let start = Rigid::from_rows(&instances[i].pose?);
         let p = Vec3::from_array(instances[i].position);
@@ -276,15 +291,24 @@ fn align_instances(
         // many: queries reach a voxel or three.
         let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
         let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
-        Some(align(samples, &index, start, voxel).pose)
+        let pose = align(samples, &index, start, voxel).pose;
+        let agreement = surface_agreement(samples, &index, pose, tolerance, hidden, max_hidden);
+        Some((pose, agreement))
     });
-    for (instance, pose) in instances.iter_mut().zip(refined) {
-        if let Some(pose) = pose {
+    for (instance, refined) in instances.iter_mut().zip(refined) {
+        if let Some((pose, agreement)) = refined {
             instance.pose = Some(pose.to_rows());
             instance.position = pose.apply(template.center()).to_array();
+            instance.score = Some(agreement);
         }
     }
 }
+
+/// How far from the scene's surface a template's surface point may lie at
+/// the exact pose, as a share of the template's radius: a copy remeshed or
+/// twisted by 30 degrees at its ends keeps 89% of its surface within it,
+/// the best wrong placements found 83% (docs/ARCHITECTURE.md).
+const SURFACE_TOLERANCE: f64 = 0.03;
 
 /// What the parts searched so far have found.
 #[derive(Default)]

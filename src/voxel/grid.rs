@@ -117,6 +117,15 @@ impl GridSpec {
         self.origin
             + Vec3::new(v[0] as f64 + 0.5, v[1] as f64 + 0.5, v[2] as f64 + 0.5) * self.voxel_size
     }
+
+    /// The voxel holding world point `p` (any integers: [`Grid::get`] is
+    /// false outside).
+    pub fn voxel_of(&self, p: Vec3) -> [i64; 3] {
+        ((p - self.origin) / self.voxel_size)
+            .floor()
+            .to_array()
+            .map(|c| c as i64)
+    }
 }
 
 /// A bit per voxel, rows along x packed into 64-bit words.
