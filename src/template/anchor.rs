@@ -6,10 +6,14 @@
 //! lid on its body), the solid around c_T fills differently at every
 //! orientation, and copies turned the wrong way drift past the threshold
 //! (3 of 4 teapots missed). So the template is voxelized turned two ways
-//! and the descriptors at c_T compared with its own there. Where they drift
-//! by more than twice a threshold, the anchor moves to the surface
-//! point within r_k / 2 of c_T that drifts least. c_T stays the point
-//! reported: verification's pose carries it from wherever the anchor is.
+//! and the descriptors at c_T compared with its own there. Candidates are
+//! spaced too, so a copy's best candidate is often a voxel or two off its
+//! anchor: at a sharp edge (a fandisk's) the descriptors change by more
+//! than a threshold within a voxel, and copies are lost the same way. So
+//! the descriptors at c_T are also compared with its neighbours'. Where
+//! either drift is too large, the anchor moves to the surface point within
+//! r_k / 2 of c_T that is most stable. c_T stays the point reported:
+//! verification's pose carries it from wherever the anchor is.
 
 use crate::descriptor::harmonics::{Signature, SphereSampler, describe_sphere, harmonics_distance};
 use crate::descriptor::{SphericalTransform, VolumeDescriptor};
@@ -18,6 +22,7 @@ use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::scene::{PartVoxels, nearest_voxel};
+use crate::search::{DescriptorKind, MatchOptions};
 use crate::voxel::{Ball, GridSpec};
 
 /// c_T is kept unless it drifts by more than this many thresholds: on the
@@ -41,25 +46,46 @@ pub(super) struct Thresholds {
     pub harmonics: Option<f64>,
 }
 
-/// The anchor voxel of `voxels` (the template `model` voxelized on its own
-/// grid) to read descriptors at `radii` from: `center`'s (c_T's) voxel,
-/// unless its descriptors drift when the model turns; then the least
-/// drifting of [`ALTERNATIVES`] surface voxels spread within r_k / 2.
+impl Thresholds {
+    /// Those of the stages `options` run.
+    pub(super) fn of(options: &MatchOptions) -> Thresholds {
+        Thresholds {
+            volume: (options.descriptor != DescriptorKind::Harmonics)
+                .then_some(options.volume_threshold),
+            harmonics: (options.descriptor != DescriptorKind::Volume)
+                .then_some(options.harmonics_threshold),
+        }
+    }
+}
+
+/// The anchor voxel of `voxels` to read descriptors at `radii` from:
+/// `center`'s (c_T's), unless it is unstable; then the most stable of
+/// [`ALTERNATIVES`] surface voxels spread within r_k / 2, if it is clearly
+/// more stable. Unstable is either of two things, each measured in
+/// thresholds: the descriptors drift when `model` (the template's own mesh,
+/// voxelized on `voxels`' grid; `None` for a selection, whose part may be
+/// the whole scene) turns, or they differ from those of the surface voxels
+/// a copy's candidates may fall on instead (within `spacing`, the
+/// candidates' cube, of the anchor).
 pub(super) fn stable_anchor(
-    model: &TriMesh,
+    model: Option<&TriMesh>,
     voxels: &PartVoxels,
     center: [u16; 3],
     radii: &[f64],
     thresholds: Thresholds,
+    spacing: u32,
     backend: Backend,
 ) -> Result<[u16; 3]> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
     let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
-    let drift = |anchors: &[[u16; 3]], turns: &[glam::DQuat]| -> Result<Vec<f64>> {
-        let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
-        let own: Vec<Descriptors> = anchors.iter().map(|&v| reader.at(v)).collect();
+    let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
+    let turn_drift = |anchors: &[[u16; 3]], turns: &[glam::DQuat]| -> Result<Vec<f64>> {
         let mut worst = vec![0.0f64; anchors.len()];
+        let Some(model) = model else {
+            return Ok(worst);
+        };
+        let own: Vec<Descriptors> = anchors.iter().map(|&v| reader.at(v)).collect();
         for &turn in turns {
             let turned = model.map_positions(|p| turn * p)?;
             let turned_spec = GridSpec::around(turned.bounds(), spec.voxel_size)?;
@@ -83,27 +109,82 @@ pub(super) fn stable_anchor(
         }
         Ok(worst)
     };
+    // The median drift to the surface voxels around the anchor: a copy's
+    // candidate is one of them as often as it is the anchor's twin.
+    let reach = (NEIGHBOUR_REACH * spacing as f64).max(1.0);
+    let roughness = |a: [u16; 3]| -> f64 {
+        let here = reader.at(a);
+        let mut drifts: Vec<f64> = voxels
+            .skin()
+            .iter()
+            .filter(|n| **n != a && offset(n, a).length() <= reach)
+            .map(|&n| here.drift(&reader.at(n), radii, spec.voxel_size, thresholds))
+            .collect();
+        drifts.sort_by(f64::total_cmp);
+        drifts.get(drifts.len() / 2).copied().unwrap_or(0.0)
+    };
     // One turn tells a drifting c_T; both choose among the others.
-    let own = drift(&[center], &TURNS[..1])?[0];
-    if own <= STABLE_DRIFT {
+    let own_turn = turn_drift(&[center], &TURNS[..1])?[0];
+    let own_rough = roughness(center);
+    if own_turn <= STABLE_DRIFT && own_rough <= ROUGH_DRIFT {
         return Ok(center);
     }
+    // A turning template may need to move far (a teapot's lid), and is
+    // judged by its turns alone; a rough spot moves only within its
+    // neighbourhood, which keeps what the descriptors see (a selection's
+    // anchor far from c_T would read beyond the sphere), and is judged by
+    // both drifts, each over its limit.
+    let turning = own_turn > STABLE_DRIFT;
+    let reach = if turning {
+        radii[radii.len() - 1] / 2.0
+    } else {
+        radii[0]
+    };
     let mut anchors = vec![center];
     anchors.extend(spread_within(
         voxels.skin(),
         center,
-        radii[radii.len() - 1] / 2.0 / spec.voxel_size,
+        reach / spec.voxel_size,
     ));
-    let drifts = drift(&anchors, &TURNS)?;
+    let turns = turn_drift(&anchors, &TURNS)?;
+    let instability: Vec<f64> = if turning {
+        turns
+    } else {
+        anchors
+            .iter()
+            .zip(&turns)
+            .map(|(&a, &t)| (t / STABLE_DRIFT).max(roughness(a) / ROUGH_DRIFT))
+            .collect()
+    };
     let best = (0..anchors.len())
-        .min_by(|&a, &b| drifts[a].total_cmp(&drifts[b]))
+        .min_by(|&a, &b| instability[a].total_cmp(&instability[b]))
         .expect("c_T at least");
     // Another anchor must do clearly better to replace the paper's.
-    Ok(if drifts[best] < own * ALTERNATIVE_SHARE {
+    Ok(if instability[best] < instability[0] * ALTERNATIVE_SHARE {
         anchors[best]
     } else {
         center
     })
+}
+
+/// c_T is kept unless the median drift to its neighbours exceeds this
+/// many thresholds: a copy found from a neighbour would then fail the
+/// cascade more often than not. The shared templates' c_T: 0.28-0.72, and
+/// 0.29-0.78 for the selections every copy of which is found; 1.07-1.11
+/// for two selections that lose copies (a fandisk's edge, a horse's leg).
+const ROUGH_DRIFT: f64 = 1.0;
+
+/// Neighbours within this many voxels per voxel of candidate spacing:
+/// about half a candidate cube's diagonal.
+const NEIGHBOUR_REACH: f64 = 0.9;
+
+/// `v` relative to `center`, in voxels.
+fn offset(v: &[u16; 3], center: [u16; 3]) -> Vec3 {
+    Vec3::new(
+        v[0] as f64 - center[0] as f64,
+        v[1] as f64 - center[1] as f64,
+        v[2] as f64 - center[2] as f64,
+    )
 }
 
 /// Two turns about unrelated axes (unit quaternions: 1.1 rad about
@@ -117,13 +198,7 @@ const TURNS: [glam::DQuat; 2] = [
 /// Up to [`ALTERNATIVES`] skin voxels within `reach` voxels of `center`,
 /// spread by farthest-point sampling from it.
 fn spread_within(skin: &[[u16; 3]], center: [u16; 3], reach: f64) -> Vec<[u16; 3]> {
-    let offset = |v: &[u16; 3]| {
-        Vec3::new(
-            v[0] as f64 - center[0] as f64,
-            v[1] as f64 - center[1] as f64,
-            v[2] as f64 - center[2] as f64,
-        )
-    };
+    let offset = |v: &[u16; 3]| offset(v, center);
     let near: Vec<[u16; 3]> = skin
         .iter()
         .filter(|v| offset(v).length() <= reach)

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
-use crate::search::{DescriptorKind, MatchOptions};
+use crate::search::MatchOptions;
 use crate::voxel::GridSpec;
 
 /// A template prepared against a scene.
@@ -112,16 +112,12 @@ impl VoxelTemplate {
                     nearest
                 } else {
                     stable_anchor(
-                        model,
+                        Some(model),
                         &voxels,
                         nearest,
                         &evenly_spaced(radius, layers),
-                        Thresholds {
-                            volume: (options.descriptor != DescriptorKind::Harmonics)
-                                .then_some(options.volume_threshold),
-                            harmonics: (options.descriptor != DescriptorKind::Volume)
-                                .then_some(options.harmonics_threshold),
-                        },
+                        Thresholds::of(options),
+                        options.candidate_spacing,
                         backend,
                     )?
                 };
@@ -154,8 +150,22 @@ impl VoxelTemplate {
                     radius / voxel_size,
                     &held,
                 )?;
-                let voxel = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
+                let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
                     .expect("a part has skin");
+                let voxel = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
+                    // Refused below; nothing to read.
+                    nearest
+                } else {
+                    stable_anchor(
+                        None,
+                        &voxels,
+                        nearest,
+                        &evenly_spaced(radius, layers),
+                        Thresholds::of(options),
+                        options.candidate_spacing,
+                        backend,
+                    )?
+                };
                 // The selected material holds c_T and every selected vertex,
                 // so its bounding sphere is at least half their distance.
                 let mesh = scene.mesh();
