@@ -374,7 +374,7 @@ pub fn align(
             let angle = std::f64::consts::TAU * step as f64 / TURN_STEPS as f64;
             let turned = start.after(&Rigid::turn(samples.centroid, axis, angle));
             let turned = best_shift(samples, scene, turned, axis, voxel);
-            let a = icp(samples, scene, turned, voxel, QUICK);
+            let a = icp(samples, scene, turned, voxel, TURNED);
             if a.misfit < best.misfit.min(first.misfit * FLIP_SHARE - FLIP_MARGIN) {
                 best = a;
             }
@@ -475,7 +475,7 @@ fn best_shift(
 const SHIFT_SEARCH: i32 = 4;
 
 /// Samples the shifts are scored on.
-const SHIFT_SAMPLES: usize = 48;
+const SHIFT_SAMPLES: usize = 32;
 
 /// How far one alignment goes.
 #[derive(Clone, Copy)]
@@ -489,6 +489,12 @@ struct Run {
 /// Comparing placements: a quarter of the samples, a few iterations.
 const QUICK: Run = Run {
     stride: 4,
+    iterations: 8,
+};
+
+/// Trying a turned placement: an eighth of the samples.
+const TURNED: Run = Run {
+    stride: 8,
     iterations: 8,
 };
 
