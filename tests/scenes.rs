@@ -59,6 +59,26 @@ fn cluttered_bunny() {
 }
 
 #[test]
+fn twisted_homer() {
+    // Bent by up to 30 degrees: no rigid pose exists, so poses are not
+    // checked; 89% of each copy's surface lies within the default 3% of
+    // r_k of the scene at the best rigid fit.
+    let report = run("twisted-homer", false);
+    common::assert_finds_everything("twisted-homer", false, &report);
+}
+
+#[test]
+fn a_tighter_surface_tolerance_refuses_bent_copies() {
+    // At 1% of r_k, as for exact CAD instances, a copy must be rigid.
+    let mut options = fast_reject::MatchOptions::DEFAULT;
+    options.surface_tolerance = 0.01;
+    let report = common::run_with("twisted-homer", false, &options);
+    assert!(report.instances.is_empty(), "{:?}", report.instances);
+    let report = common::run_with("zoo-bunny", false, &options);
+    common::assert_finds_everything("zoo-bunny", false, &report);
+}
+
+#[test]
 fn real_saw_fin() {
     // Real CAD: twelve thin plates packed close on a ring, other parts'
     // surface all around them; found because each part is described alone.

@@ -180,6 +180,7 @@ pub(super) fn search_voxels(
             &samples,
             &template,
             max_hidden,
+            options.surface_tolerance,
             backend,
         );
         // The meshes' verdict at the exact pose.
@@ -247,8 +248,9 @@ const ALIGN_SAMPLES: usize = 1024;
 /// Refines each instance's pose on the meshes ([`crate::align`]): the
 /// template's samples onto `part`'s triangles around the instance. The
 /// instance's position follows its pose, and its score falls to the share
-/// of the template's surface that lands on the scene's there (what lands
-/// inside `voxels`' solid is hidden, up to `max_hidden`).
+/// of the template's surface within `surface_tolerance` of r_k of the
+/// scene's there (what lands inside `voxels`' solid is hidden, up to
+/// `max_hidden`).
 #[allow(clippy::too_many_arguments)]
 fn align_instances(
     instances: &mut [Instance],
@@ -258,6 +260,7 @@ fn align_instances(
     samples: &SurfaceSamples,
     template: &VoxelTemplate,
     max_hidden: f64,
+    surface_tolerance: f64,
     backend: crate::exec::Backend,
 ) {
     if samples.is_empty() {
@@ -266,7 +269,7 @@ fn align_instances(
     let mesh = scene.mesh();
     let voxel = voxels.grid().spec().voxel_size;
     let reach = template.radius() + 4.0 * voxel;
-    let tolerance = SURFACE_TOLERANCE * template.radius();
+    let tolerance = surface_tolerance * template.radius();
     // Inside the solid, and a voxel clear of its surface.
     let hidden = |p: Vec3| {
         let v = voxels.grid().spec().voxel_of(p);
@@ -303,12 +306,6 @@ fn align_instances(
         }
     }
 }
-
-/// How far from the scene's surface a template's surface point may lie at
-/// the exact pose, as a share of the template's radius: a copy remeshed or
-/// twisted by 30 degrees at its ends keeps 89% of its surface within it,
-/// the best wrong placements found 83% (docs/ARCHITECTURE.md).
-const SURFACE_TOLERANCE: f64 = 0.03;
 
 /// What the parts searched so far have found.
 #[derive(Default)]
