@@ -175,8 +175,9 @@ pub struct MatchOptions {
     ///
     /// A copy's anchor is then within a voxel or two of a candidate, which
     /// the descriptors' thresholds absorb, and verification and the pose
-    /// refinement place the template exactly. Default: 2, about 3x fewer
-    /// candidates.
+    /// refinement place the template exactly; a template whose anchor's
+    /// descriptors change by a threshold within a voxel is searched at 1.
+    /// Default: 2, about 3x fewer candidates.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.candidate_spacing))]
     pub candidate_spacing: u32,
     /// When extra material (other objects) excuses the outer layers; see

@@ -91,7 +91,7 @@ pub(super) fn search_voxels(
             &fresh
         };
         let t1 = now_ms();
-        let candidates = spaced(voxels.skin(), options.candidate_spacing as u16);
+        let candidates = spaced(voxels.skin(), template.candidate_spacing() as u16);
         let mut estimate = held.clone();
         estimate.add("candidate state", candidate_bytes(candidates.len()));
         estimate.check(scene.memory_budget(), || {

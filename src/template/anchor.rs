@@ -75,7 +75,7 @@ pub(super) fn stable_anchor(
     thresholds: Thresholds,
     spacing: u32,
     backend: Backend,
-) -> Result<[u16; 3]> {
+) -> Result<Anchor> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
     let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
@@ -127,7 +127,10 @@ pub(super) fn stable_anchor(
     let own_turn = turn_drift(&[center], &TURNS[..1])?[0];
     let own_rough = roughness(center);
     if own_turn <= STABLE_DRIFT && own_rough <= ROUGH_DRIFT {
-        return Ok(center);
+        return Ok(Anchor {
+            voxel: center,
+            rough: false,
+        });
     }
     // A turning template may need to move far (a teapot's lid), and is
     // judged by its turns alone; a rough spot moves only within its
@@ -160,11 +163,23 @@ pub(super) fn stable_anchor(
         .min_by(|&a, &b| instability[a].total_cmp(&instability[b]))
         .expect("c_T at least");
     // Another anchor must do clearly better to replace the paper's.
-    Ok(if instability[best] < instability[0] * ALTERNATIVE_SHARE {
-        anchors[best]
+    let (voxel, rough) = if instability[best] < instability[0] * ALTERNATIVE_SHARE {
+        (anchors[best], roughness(anchors[best]))
     } else {
-        center
+        (center, own_rough)
+    };
+    Ok(Anchor {
+        voxel,
+        rough: rough > ROUGH_DRIFT,
     })
+}
+
+/// The anchor chosen, and whether it is still rough: then no candidate
+/// may be skipped (see [`ROUGH_DRIFT`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Anchor {
+    pub voxel: [u16; 3],
+    pub rough: bool,
 }
 
 /// c_T is kept unless the median drift to its neighbours exceeds this

@@ -2,7 +2,7 @@
 //! its descriptors are read from (its own anchor part's for a model, the
 //! selected scene part's for a selection).
 
-use super::anchor::{Thresholds, stable_anchor};
+use super::anchor::{Anchor, Thresholds, stable_anchor};
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
@@ -29,6 +29,7 @@ pub struct VoxelTemplate {
     /// No copy can lie on a part whose bounding sphere is smaller.
     min_part_radius: f64,
     voxel: [u16; 3],
+    candidate_spacing: u32,
 }
 
 /// A copy's part may be this much smaller than the template's (remeshing,
@@ -51,7 +52,7 @@ impl VoxelTemplate {
         let (layers, backend) = (options.layers, options.backend);
         check_layers(layers)?;
         let voxel_size = lattice.spec.voxel_size;
-        let (center, radius, voxels, scene_part, parts, min_part_radius, voxel) = match source {
+        let (center, radius, voxels, scene_part, parts, min_part_radius, anchor) = match source {
             TemplateSource::Model(model) => {
                 let sphere = bounding_sphere(model);
                 check_extent(2.0 * sphere.radius, scene, false)?;
@@ -107,9 +108,12 @@ impl VoxelTemplate {
                     .iter()
                     .map(|&p| from_f32(p).distance(center))
                     .fold(0.0, f64::max);
-                let voxel = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
+                let anchor = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
                     // Refused below; nothing to read.
-                    nearest
+                    Anchor {
+                        voxel: nearest,
+                        rough: false,
+                    }
                 } else {
                     stable_anchor(
                         Some(model),
@@ -122,7 +126,7 @@ impl VoxelTemplate {
                     )?
                 };
                 let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
-                (center, radius, voxels, None, parts, min_part_radius, voxel)
+                (center, radius, voxels, None, parts, min_part_radius, anchor)
             }
             &TemplateSource::Selection { center, radius } => {
                 let snapped = snap_selection(scene, center, radius)?;
@@ -152,9 +156,12 @@ impl VoxelTemplate {
                 )?;
                 let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
                     .expect("a part has skin");
-                let voxel = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
+                let anchor = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
                     // Refused below; nothing to read.
-                    nearest
+                    Anchor {
+                        voxel: nearest,
+                        rough: false,
+                    }
                 } else {
                     stable_anchor(
                         None,
@@ -184,7 +191,7 @@ impl VoxelTemplate {
                     Some(part),
                     Parts::Components,
                     min_part_radius,
-                    voxel,
+                    anchor,
                 )
             }
         };
@@ -200,7 +207,13 @@ impl VoxelTemplate {
             scene_part,
             parts,
             min_part_radius,
-            voxel,
+            voxel: anchor.voxel,
+            // Neighbours of a rough anchor are no stand-ins for it.
+            candidate_spacing: if anchor.rough {
+                1
+            } else {
+                options.candidate_spacing
+            },
         })
     }
 
@@ -253,6 +266,13 @@ impl VoxelTemplate {
     /// The voxel the template's descriptors are computed at.
     pub fn voxel(&self) -> [u16; 3] {
         self.voxel
+    }
+
+    /// One candidate per cube of this many voxels: the option's, or 1
+    /// where even the steadiest anchor differs from its neighbours by
+    /// more than a threshold.
+    pub fn candidate_spacing(&self) -> u32 {
+        self.candidate_spacing
     }
 
     /// c_T relative to the centre of [`VoxelTemplate::voxel`], in voxels.
