@@ -683,12 +683,18 @@ mod tests {
         assert!(a.misfit < 0.01, "{}", a.misfit);
     }
 
+    /// A plate 8 x 0.4 x 2 with a rib along one face's edge.
+    fn ribbed_plate() -> TriMesh {
+        let mut plate = cuboid(Vec3::ZERO, Vec3::new(8.0, 0.4, 2.0));
+        plate.append(&cuboid(Vec3::new(0.0, 0.4, 0.0), Vec3::new(8.0, 0.7, 0.3)));
+        plate
+    }
+
     /// A plate whose one face carries a rib, found the other side up, is
     /// turned over: the half-turn lays more of it on the scene.
     #[test]
     fn a_plate_found_upside_down_is_turned_over() {
-        let mut template = cuboid(Vec3::ZERO, Vec3::new(8.0, 0.4, 2.0));
-        template.append(&cuboid(Vec3::new(0.0, 0.4, 0.0), Vec3::new(8.0, 0.7, 0.3)));
+        let template = ribbed_plate();
         let tris = corners(&template);
         let truth = Rigid {
             rotation: DMat3::from_rotation_z(0.3),
@@ -709,8 +715,7 @@ mod tests {
     /// long axis) is stood back up.
     #[test]
     fn a_plate_found_on_its_side_is_turned_back() {
-        let mut template = cuboid(Vec3::ZERO, Vec3::new(8.0, 0.4, 2.0));
-        template.append(&cuboid(Vec3::new(0.0, 0.4, 0.0), Vec3::new(8.0, 0.7, 0.3)));
+        let template = ribbed_plate();
         let tris = corners(&template);
         let truth = Rigid {
             rotation: DMat3::from_rotation_y(-0.6),

@@ -237,13 +237,20 @@ impl Verifier {
             self.surface_counts(near_surface, bits, vi, pose, stride)
                 .score(self.max_hidden)
         };
-        let rough: Vec<f64> = poses.iter().map(|p| agreement(p, ROUGH_STRIDE)).collect();
+        let rough_counts: Vec<SurfaceCounts> = poses
+            .iter()
+            .map(|p| self.surface_counts(near_surface, bits, vi, p, ROUGH_STRIDE))
+            .collect();
+        let rough: Vec<f64> = rough_counts
+            .iter()
+            .map(|c| c.score(self.max_hidden))
+            .collect();
         let best_rough = rough.iter().copied().fold(0.0, f64::max);
         // Far below what refinement starts from and the threshold: no
         // full count can change the verdict.
         if best_rough + ROUGH_MARGIN < REFINE_FROM.min(threshold) {
             let at = rough.iter().position(|&r| r == best_rough).unwrap_or(0);
-            let counts = self.surface_counts(near_surface, bits, vi, &poses[at], ROUGH_STRIDE);
+            let counts = &rough_counts[at];
             return Placement {
                 surface: best_rough,
                 buried: counts.buried as f64 / counts.total.max(1) as f64,

@@ -150,24 +150,37 @@ pub(super) fn stable_anchor(
         reach / spec.voxel_size,
     ));
     let turns = turn_drift(&anchors, &TURNS)?;
+    // c_T's is known; a turning template's others are read for the winner
+    // only.
+    let rough: Vec<Option<f64>> = anchors
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| match i {
+            0 => Some(own_rough),
+            _ if turning => None,
+            _ => Some(roughness(a)),
+        })
+        .collect();
     let instability: Vec<f64> = if turning {
         turns
     } else {
-        anchors
+        turns
             .iter()
-            .zip(&turns)
-            .map(|(&a, &t)| (t / STABLE_DRIFT).max(roughness(a) / ROUGH_DRIFT))
+            .zip(&rough)
+            .map(|(&t, r)| (t / STABLE_DRIFT).max(r.unwrap_or(0.0) / ROUGH_DRIFT))
             .collect()
     };
     let best = (0..anchors.len())
         .min_by(|&a, &b| instability[a].total_cmp(&instability[b]))
         .expect("c_T at least");
     // Another anchor must do clearly better to replace the paper's.
-    let (voxel, rough) = if instability[best] < instability[0] * ALTERNATIVE_SHARE {
-        (anchors[best], roughness(anchors[best]))
+    let chosen = if instability[best] < instability[0] * ALTERNATIVE_SHARE {
+        best
     } else {
-        (center, own_rough)
+        0
     };
+    let voxel = anchors[chosen];
+    let rough = rough[chosen].unwrap_or_else(|| roughness(voxel));
     Ok(Anchor {
         voxel,
         rough: rough > ROUGH_DRIFT,

@@ -14,6 +14,36 @@ use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_
 use crate::search::MatchOptions;
 use crate::voxel::GridSpec;
 
+/// The anchor of a template of `radius` and `layers` voxelized on `voxels`
+/// whose c_T is at voxel `nearest` ([`stable_anchor`]), or `nearest`
+/// itself where the first layer is too thin to read (the template is
+/// refused later).
+fn choose_anchor(
+    model: Option<&TriMesh>,
+    voxels: &PartVoxels,
+    nearest: [u16; 3],
+    radius: f64,
+    layers: usize,
+    options: &MatchOptions,
+) -> Result<Anchor> {
+    let voxel_size = voxels.grid().spec().voxel_size;
+    if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
+        return Ok(Anchor {
+            voxel: nearest,
+            rough: false,
+        });
+    }
+    stable_anchor(
+        model,
+        voxels,
+        nearest,
+        &evenly_spaced(radius, layers),
+        Thresholds::of(options),
+        options.candidate_spacing,
+        options.backend,
+    )
+}
+
 /// A template prepared against a scene.
 pub struct VoxelTemplate {
     center: Vec3,
@@ -108,23 +138,7 @@ impl VoxelTemplate {
                     .iter()
                     .map(|&p| from_f32(p).distance(center))
                     .fold(0.0, f64::max);
-                let anchor = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
-                    // Refused below; nothing to read.
-                    Anchor {
-                        voxel: nearest,
-                        rough: false,
-                    }
-                } else {
-                    stable_anchor(
-                        Some(model),
-                        &voxels,
-                        nearest,
-                        &evenly_spaced(radius, layers),
-                        Thresholds::of(options),
-                        options.candidate_spacing,
-                        backend,
-                    )?
-                };
+                let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
                 let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
                 (center, radius, voxels, None, parts, min_part_radius, anchor)
             }
@@ -156,23 +170,7 @@ impl VoxelTemplate {
                 )?;
                 let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
                     .expect("a part has skin");
-                let anchor = if radius / layers as f64 / voxel_size < MIN_RADIUS_VOXELS {
-                    // Refused below; nothing to read.
-                    Anchor {
-                        voxel: nearest,
-                        rough: false,
-                    }
-                } else {
-                    stable_anchor(
-                        None,
-                        &voxels,
-                        nearest,
-                        &evenly_spaced(radius, layers),
-                        Thresholds::of(options),
-                        options.candidate_spacing,
-                        backend,
-                    )?
-                };
+                let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
                 // The selected material holds c_T and every selected vertex,
                 // so its bounding sphere is at least half their distance.
                 let mesh = scene.mesh();
