@@ -54,7 +54,7 @@ fn main() {
     let cap = 100.0 * threshold;
     let d = CurvatureDescriptor::new(surface, &radii, &gaussians, cap);
     let distance = |v: u32, limit: f64| {
-        let mut state = d.start(v);
+        let mut state = d.start(v, 1);
         let mut x = 0.0;
         for layer in 0..radii.len() {
             x = d.extend(v, layer, &mut state);
@@ -108,7 +108,7 @@ fn main() {
             .map(|&w| (w, values[&w]))
             .fold((s0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
         let layers = |v: u32| {
-            let mut state = d.start(v);
+            let mut state = d.start(v, 1);
             let mut last = 0.0;
             (0..radii.len())
                 .map(|l| {

@@ -7,6 +7,13 @@
 //! template passes the stage's threshold. The next stage starts from the
 //! previous one's survivors. Per-layer statistics go to an [`Observer`], which
 //! may also stop the search.
+//!
+//! A template may be read at several anchors (points of its surface), so
+//! that a copy cluttered at one is found at another. A point's descriptor is
+//! computed once per layer and compared with every anchor's: a point stays
+//! a candidate while any anchor still matches it, and [`Anchors`] says
+//! which. The cost is that of the union of the anchors' survivors, not of
+//! a cascade per anchor.
 
 use std::ops::ControlFlow;
 
@@ -34,13 +41,28 @@ pub struct LayerStats {
     pub ms: f64,
 }
 
+/// The anchors a point still matches, bit `a` for anchor `a`.
+pub type Anchors = u8;
+
+/// The most anchors a template may have.
+pub const MAX_ANCHORS: usize = 4;
+
+/// Every anchor of a template of `count` anchors.
+pub fn all_anchors(count: usize) -> Anchors {
+    assert!((1..=MAX_ANCHORS).contains(&count), "{count} anchors");
+    ((1u16 << count) - 1) as Anchors
+}
+
 /// A point that passed every layer, with its final distance in the last stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Survivor {
     /// Index into the scene's candidate points.
     pub point: u32,
-    /// Final running distance of the last stage.
+    /// Final running distance of the last stage: the smallest of its
+    /// anchors'.
     pub distance: f64,
+    /// The anchors it matched through every stage.
+    pub anchors: Anchors,
 }
 
 /// Receives per-layer statistics as the search runs (progress bars, logs);
@@ -65,10 +87,11 @@ impl<F: FnMut(&LayerStats) -> ControlFlow<()>> Observer for F {
 /// A descriptor with its state type erased, so that stages of different
 /// descriptors form one chain.
 pub trait Stage: Sync {
-    /// Runs all layers over `candidates`; `report` sees every layer.
+    /// Runs all layers over `candidates` (points with the anchors they
+    /// still match); `report` sees every layer.
     fn run(
         &self,
-        candidates: Vec<u32>,
+        candidates: Vec<(u32, Anchors)>,
         backend: Backend,
         report: &mut dyn FnMut(LayerStats) -> Result<()>,
     ) -> Result<Vec<Survivor>>;
@@ -77,17 +100,19 @@ pub trait Stage: Sync {
 impl<D: OnionDescriptor> Stage for D {
     fn run(
         &self,
-        candidates: Vec<u32>,
+        candidates: Vec<(u32, Anchors)>,
         backend: Backend,
         report: &mut dyn FnMut(LayerStats) -> Result<()>,
     ) -> Result<Vec<Survivor>> {
         let threshold = self.threshold();
         // Choosing the order is part of the first layer's time.
         let mut begun = now_ms();
-        let order = self.order(&candidates, backend);
+        let points: Vec<u32> = candidates.iter().map(|&(p, _)| p).collect();
+        let order = self.order(&points, backend);
+        drop(points);
         let mut live: Vec<(u32, D::State, f64)> = candidates
             .into_iter()
-            .map(|p| (p, self.start(p), 0.0))
+            .map(|(p, anchors)| (p, self.start(p, anchors), 0.0))
             .collect();
         for layer in order {
             let start = begun;
@@ -108,16 +133,22 @@ impl<D: OnionDescriptor> Stage for D {
         }
         Ok(live
             .into_iter()
-            .map(|(point, _, distance)| Survivor { point, distance })
+            .map(|(point, state, distance)| Survivor {
+                point,
+                distance,
+                anchors: self.anchors(&state),
+            })
             .collect())
     }
 }
 
-/// Runs the stages in order from `candidates`; returns the survivors of the
-/// last stage and the statistics of every layer.
+/// Runs the stages in order from `candidates`, each matching the anchors
+/// `anchors`; returns the survivors of the last stage and the statistics of
+/// every layer.
 pub fn run_cascade(
     stages: &[&dyn Stage],
     candidates: Vec<u32>,
+    anchors: Anchors,
     backend: Backend,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
@@ -135,12 +166,13 @@ pub fn run_cascade(
         .map(|&point| Survivor {
             point,
             distance: 0.0,
+            anchors,
         })
         .collect();
-    let mut points = candidates;
+    let mut points: Vec<(u32, Anchors)> = candidates.into_iter().map(|p| (p, anchors)).collect();
     for stage in stages {
         survivors = stage.run(points, backend, &mut report)?;
-        points = survivors.iter().map(|s| s.point).collect();
+        points = survivors.iter().map(|s| (s.point, s.anchors)).collect();
     }
     Ok((survivors, stats))
 }
@@ -206,7 +238,7 @@ mod tests {
             self.order.clone()
         }
 
-        fn start(&self, _: u32) -> Self::State {
+        fn start(&self, _: u32, _: Anchors) -> Self::State {
             (Vec::new(), 0.0)
         }
 
@@ -246,7 +278,7 @@ mod tests {
         candidates: Vec<u32>,
         backend: Backend,
     ) -> (Vec<Survivor>, Vec<LayerStats>) {
-        run_cascade(stages, candidates, backend, &mut ()).unwrap()
+        run_cascade(stages, candidates, 1, backend, &mut ()).unwrap()
     }
 
     /// The statistics without the times.
@@ -311,7 +343,8 @@ mod tests {
             survivors,
             [4, 5].map(|point| Survivor {
                 point,
-                distance: 0.0
+                distance: 0.0,
+                anchors: 1,
             })
         );
     }
@@ -324,7 +357,8 @@ mod tests {
             survivors,
             [4, 2, 9].map(|point| Survivor {
                 point,
-                distance: 0.0
+                distance: 0.0,
+                anchors: 1,
             })
         );
     }
@@ -347,7 +381,13 @@ mod tests {
                     }
                 };
                 let computed_before = first.computed().len() + second.computed().len();
-                let r = run_cascade(&[&first, &second], (0..6).collect(), backend, &mut observer);
+                let r = run_cascade(
+                    &[&first, &second],
+                    (0..6).collect(),
+                    1,
+                    backend,
+                    &mut observer,
+                );
                 assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
                 assert_eq!(seen.len(), stop_at, "{backend:?}: {seen:?}");
                 // Nothing is computed after the layer that broke.

@@ -152,6 +152,7 @@ mod tests {
             .map(|i| Survivor {
                 point: i,
                 distance: d[i as usize],
+                anchors: 1,
             })
             .collect();
         let pos = |i: u32| pts[i as usize];

@@ -1,10 +1,11 @@
 //! Where the template's descriptors are read: a c_T whose voxels change as
-//! the template turns is replaced by a steadier anchor, and copies at every
-//! orientation are found.
+//! the template turns is replaced by a steadier anchor and read at two
+//! more, and copies at every orientation are found.
 
 mod common;
 
 use fast_reject::math::Vec3;
+use fast_reject::template::VoxelTemplate;
 use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load, search};
 use glam::DQuat;
 
@@ -60,4 +61,36 @@ fn teapots_turned_every_way_are_all_found() {
         );
     }
     assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+}
+
+/// The anchors `template` is read at when searched for in itself, in
+/// template units, and its outer radius.
+fn anchors_of(template: TriMesh) -> (Vec<Vec3>, f64) {
+    let scene = Scene::new(template.clone(), &SceneOptions::DEFAULT).unwrap();
+    let source = TemplateSource::Model(template);
+    let options = MatchOptions::DEFAULT;
+    let lattice = scene
+        .lattice_for(
+            VoxelTemplate::bounding_radius(&source),
+            options.template_voxels,
+        )
+        .unwrap();
+    let t = VoxelTemplate::new(&source, &scene, &lattice, &options).unwrap();
+    let anchors = (0..t.anchors().len())
+        .map(|a| t.anchor_position(a))
+        .collect();
+    (anchors, t.radius())
+}
+
+#[test]
+fn a_drifting_template_is_read_at_three_anchors_apart_and_a_steady_one_at_one() {
+    let (teapot, r) = anchors_of(teapot());
+    assert_eq!(teapot.len(), 3, "{teapot:?}");
+    for (i, a) in teapot.iter().enumerate() {
+        for b in &teapot[i + 1..] {
+            assert!(a.distance(*b) >= 0.5 * r - 1e-9, "{teapot:?}, r_k {r}");
+        }
+    }
+    let bunny = load(&common::model_bytes("stanford-bunny.obj"), None).unwrap();
+    assert_eq!(anchors_of(bunny).0.len(), 1);
 }

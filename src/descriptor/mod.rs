@@ -18,6 +18,7 @@ pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::VolumeDescriptor;
 
+use crate::cascade::Anchors;
 use crate::exec::Backend;
 
 /// A layered descriptor compared against a template's, point by point.
@@ -48,8 +49,15 @@ pub trait OnionDescriptor: Sync {
         (0..self.layers()).collect()
     }
 
-    /// Fresh state for scene point `point`.
-    fn start(&self, point: u32) -> Self::State;
+    /// Fresh state for scene point `point`, which still matches the
+    /// template's `anchors` (see [`crate::cascade`]).
+    fn start(&self, point: u32, anchors: Anchors) -> Self::State;
+
+    /// The anchors a point whose state is `state` still matches: the first
+    /// only, for a descriptor read at one anchor.
+    fn anchors(&self, _state: &Self::State) -> Anchors {
+        1
+    }
 
     /// Computes layer `layer` at `point` (in [`Self::order`]) and returns
     /// the running distance over the layers computed so far: it never

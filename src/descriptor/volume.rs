@@ -13,6 +13,7 @@
 //! (tested with the voxel balls) cancels out of the comparison.
 
 use super::{ClutterPolicy, OnionDescriptor};
+use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
 use crate::voxel::{Ball, Solid, level_for_radius};
 
@@ -23,40 +24,46 @@ use crate::voxel::{Ball, Solid, level_for_radius};
 pub const BLOCKS_PER_RADIUS: f64 = 4.5;
 
 /// The volume stage of the cascade: rejects a point once
-/// `sum_i |CF_T(r_i) - CF(v, r_i)|` passes the threshold (Eq. 4).
+/// `sum_i |CF_T(r_i) - CF(v, r_i)|` passes the threshold (Eq. 4) for every
+/// anchor of the template.
 pub struct VolumeDescriptor<'a> {
     solid: &'a Solid,
     points: &'a [[u16; 3]],
     balls: Vec<Ball>,
     radii: Vec<f64>,
-    template: Vec<f64>,
+    /// The template's fractions, one list per anchor.
+    templates: Vec<Vec<f64>>,
     threshold: f64,
     clutter: ClutterPolicy,
     /// Leading layers that always count (see [`super::clutter`]).
     clean_layers: usize,
 }
 
-/// The running state of a point in the volume stage.
+/// The running state of a point in the volume stage, per anchor.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct VolumeState {
-    sum: f64,
-    /// A cluttered layer was met: the rest are not compared.
-    excused: bool,
+    sums: [f64; MAX_ANCHORS],
+    /// Anchors still matched.
+    alive: Anchors,
+    /// Anchors that met a cluttered layer: their other layers are not
+    /// compared.
+    excused: Anchors,
 }
 
 impl<'a> VolumeDescriptor<'a> {
     /// A stage over the candidate voxels `points` of the scene `solid`, with
-    /// the template's fractions at the same radii (world units).
+    /// the template's fractions at the same radii (world units), one list
+    /// per anchor.
     pub fn new(
         solid: &'a Solid,
         points: &'a [[u16; 3]],
         radii: &[f64],
-        template: Vec<f64>,
+        templates: Vec<Vec<f64>>,
         threshold: f64,
         backend: Backend,
     ) -> Self {
         let balls = Self::bound_balls(solid, radii, backend);
-        Self::with_balls(solid, points, radii, balls, template, threshold)
+        Self::with_balls(solid, points, radii, balls, templates, threshold)
     }
 
     /// A stage from balls already bound to `solid` (one per radius).
@@ -65,15 +72,16 @@ impl<'a> VolumeDescriptor<'a> {
         points: &'a [[u16; 3]],
         radii: &[f64],
         balls: Vec<Ball>,
-        template: Vec<f64>,
+        templates: Vec<Vec<f64>>,
         threshold: f64,
     ) -> Self {
+        assert!((1..=MAX_ANCHORS).contains(&templates.len()));
         VolumeDescriptor {
             solid,
             points,
             balls,
             radii: radii.to_vec(),
-            template,
+            templates,
             threshold,
             clutter: ClutterPolicy::OFF,
             clean_layers: usize::MAX,
@@ -95,9 +103,9 @@ impl<'a> VolumeDescriptor<'a> {
         &self.balls
     }
 
-    /// The template's fraction at each radius.
-    pub fn template(&self) -> &[f64] {
-        &self.template
+    /// The template's fraction at each radius, per anchor.
+    pub fn templates(&self) -> &[Vec<f64>] {
+        &self.templates
     }
 
     /// The unbound balls for `radii` (world units) on voxels of `voxel_size`.
@@ -167,27 +175,53 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         self.threshold
     }
 
-    fn start(&self, _point: u32) -> VolumeState {
-        VolumeState::default()
+    fn start(&self, _point: u32, anchors: Anchors) -> VolumeState {
+        VolumeState {
+            alive: anchors & all_anchors(self.templates.len()),
+            ..VolumeState::default()
+        }
+    }
+
+    fn anchors(&self, state: &VolumeState) -> Anchors {
+        state.alive
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut VolumeState) -> f64 {
-        if !state.excused {
+        let compared = state.alive & !state.excused;
+        if compared != 0 {
             let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
-            let d = f - self.template[layer];
-            if d > self.clutter.volume_tolerance && layer >= self.clean_layers {
-                state.excused = true;
-                // Compared over `layer` layers only: their share of the budget.
-                if state.sum > self.threshold * ClutterPolicy::volume_share(layer, self.balls.len())
-                {
-                    return f64::INFINITY;
+            for (a, template) in self.templates.iter().enumerate() {
+                let bit = 1 << a;
+                if compared & bit == 0 {
+                    continue;
                 }
-            } else {
-                state.sum += d.abs();
+                let d = f - template[layer];
+                let sum = &mut state.sums[a];
+                let rejected = if d > self.clutter.volume_tolerance && layer >= self.clean_layers {
+                    state.excused |= bit;
+                    // Compared over `layer` layers only: their share of the budget.
+                    *sum > self.threshold * ClutterPolicy::volume_share(layer, self.balls.len())
+                } else {
+                    *sum += d.abs();
+                    *sum > self.threshold
+                };
+                if rejected {
+                    state.alive &= !bit;
+                }
             }
         }
-        state.sum
+        closest(&state.sums, state.alive)
     }
+}
+
+/// The smallest running distance among the anchors `alive`, or infinity
+/// when none is left: it never decreases, since each anchor's does not and
+/// the set only shrinks.
+pub(super) fn closest(sums: &[f64; MAX_ANCHORS], alive: Anchors) -> f64 {
+    (0..MAX_ANCHORS)
+        .filter(|a| alive & (1 << a) != 0)
+        .map(|a| sums[a])
+        .fold(f64::INFINITY, f64::min)
 }
 
 #[cfg(test)]

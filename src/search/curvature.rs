@@ -54,17 +54,17 @@ pub(super) fn search_curvature(
             )
             .named("curvature-sample");
             let (near, mut stats) =
-                run_cascade(&[&loose], sample.vertices, options.backend, observer)?;
+                run_cascade(&[&loose], sample.vertices, 1, options.backend, observer)?;
             let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
             let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
             let (survivors, exact) =
-                run_cascade(&[&curvature], candidates, options.backend, observer)?;
+                run_cascade(&[&curvature], candidates, 1, options.backend, observer)?;
             stats.extend(exact);
             (survivors, stats)
         }
         None => {
             let every = surface.used_vertices().collect();
-            run_cascade(&[&curvature], every, options.backend, observer)?
+            run_cascade(&[&curvature], every, 1, options.backend, observer)?
         }
     };
     let t2 = now_ms();

@@ -7,7 +7,7 @@ use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
-use crate::cascade::{LayerStats, Observer, Stage, run_cascade};
+use crate::cascade::{LayerStats, Observer, Stage, Survivor, all_anchors, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
@@ -41,7 +41,7 @@ pub(super) fn search_voxels(
     };
     let template = VoxelTemplate::new(source, scene, &lattice, options)?;
     let radii = template.radii();
-    let (tvoxels, tvoxel, backend) = (template.voxels(), template.voxel(), options.backend);
+    let (tvoxels, anchors, backend) = (template.voxels(), template.anchors(), options.backend);
     let voxel = lattice.spec.voxel_size;
     let radii_voxels: Vec<f64> = radii.iter().map(|r| r / voxel).collect();
     let held = search_estimate(scene, &template, &radii_voxels);
@@ -52,21 +52,33 @@ pub(super) fn search_voxels(
     // The balls' tables are built once: read at the template's one point,
     // then bound to each part's layout.
     let balls = VolumeDescriptor::unbound_balls(radii, voxel, backend);
-    let template_volume = VolumeDescriptor::describe_with(tvoxels.solid(), tvoxel, &balls, backend);
+    let template_volume: Vec<Vec<f64>> = anchors
+        .iter()
+        .map(|&a| VolumeDescriptor::describe_with(tvoxels.solid(), a, &balls, backend))
+        .collect();
     let template_harmonics = (options.descriptor != DescriptorKind::Volume).then(|| {
-        HarmonicsDescriptor::describe(tvoxels.solid(), tvoxel, radii, &transform, backend)
+        anchors
+            .iter()
+            .map(|&a| HarmonicsDescriptor::describe(tvoxels.solid(), a, radii, &transform, backend))
+            .collect::<Vec<_>>()
     });
     let max_hidden = options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. }));
-    let verifier = Verifier::new(
-        tvoxels.solid(),
-        tvoxels.skin(),
-        tvoxels.near_surface(),
-        tvoxel,
-        template.center_offset(),
-        &radii_voxels,
-        max_hidden,
-        backend,
-    );
+    let verifiers: Vec<Verifier> = anchors
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| {
+            Verifier::new(
+                tvoxels.solid(),
+                tvoxels.skin(),
+                tvoxels.near_surface(),
+                a,
+                template.center_offset(i),
+                &radii_voxels,
+                max_hidden,
+                backend,
+            )
+        })
+        .collect();
     let reach = template.radius() / voxel;
     let parts: Vec<(usize, &ScenePart)> = scene
         .parts(template.parts())
@@ -126,7 +138,7 @@ pub(super) fn search_voxels(
             .with_clutter(ClutterGuard {
                 policy: options.clutter,
                 balls: volume.balls(),
-                template: volume.template(),
+                templates: volume.templates(),
             })
         });
         let mut stages: Vec<&dyn Stage> = Vec::new();
@@ -136,12 +148,39 @@ pub(super) fn search_voxels(
         if let Some(h) = &harmonics {
             stages.push(h);
         }
-        let (survivors, stats) = run_cascade(&stages, candidates, backend, observer)?;
+        let (survivors, stats) = run_cascade(
+            &stages,
+            candidates,
+            all_anchors(anchors.len()),
+            backend,
+            observer,
+        )?;
         let t2 = now_ms();
         let position = |p| voxels.position(p);
-        let bests = local_bests(&survivors, position, radii[0]);
-        let verified: Vec<Verified> = backend
-            .map_each(bests.len(), |b| {
+        let mut verified: Vec<Verified> = Vec::new();
+        for (a, verifier) in verifiers.iter().enumerate() {
+            let of_anchor: Vec<Survivor> = survivors
+                .iter()
+                .filter(|s| s.anchors & (1 << a) != 0)
+                .copied()
+                .collect();
+            // A blob where a copy already placed puts this anchor is that
+            // copy, seen from another anchor.
+            let bests: Vec<Survivor> = local_bests(&of_anchor, position, radii[0])
+                .into_iter()
+                .filter(|b| {
+                    let p = position(b.point);
+                    verified.iter().all(|v| {
+                        v.pose.is_none_or(|pose| {
+                            Rigid::from_rows(&pose)
+                                .apply(template.anchor_position(a))
+                                .distance(p)
+                                > radii[0]
+                        })
+                    })
+                })
+                .collect();
+            let checked = backend.map_each(bests.len(), |b| {
                 let v = voxels.skin()[bests[b].point as usize];
                 let placement = verifier.check(
                     voxels.solid(),
@@ -162,10 +201,13 @@ pub(super) fn search_voxels(
                         position,
                     )),
                 }
-            })
-            .into_iter()
-            .filter(|v| v.score >= options.verify_threshold)
-            .collect();
+            });
+            verified.extend(
+                checked
+                    .into_iter()
+                    .filter(|v| v.score >= options.verify_threshold),
+            );
+        }
         let mut instances = group(
             &verified,
             &survivors,

@@ -81,48 +81,15 @@ pub(super) fn stable_anchor(
     let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
     let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
     let turn_drift = |anchors: &[[u16; 3]], turns: &[glam::DQuat]| -> Result<Vec<f64>> {
-        let mut worst = vec![0.0f64; anchors.len()];
-        let Some(model) = model else {
-            return Ok(worst);
-        };
-        let own: Vec<Descriptors> = anchors.iter().map(|&v| reader.at(v)).collect();
-        for &turn in turns {
-            let turned = model.map_positions(|p| turn * p)?;
-            let turned_spec = GridSpec::around(turned.bounds(), spec.voxel_size)?;
-            let turned_voxels = PartVoxels::build(&turned, &turned_spec, backend);
-            let there = Reader::new(
-                &turned_voxels,
-                &balls,
-                radii,
-                thresholds,
-                &transform,
-                backend,
-            );
-            for (i, &v) in anchors.iter().enumerate() {
-                let p = turn * spec.center(v);
-                let Some(w) = nearest_voxel(&turned_spec, turned_voxels.skin(), p) else {
-                    continue;
-                };
-                let drift = own[i].drift(&there.at(w), radii, spec.voxel_size, thresholds);
-                worst[i] = worst[i].max(drift);
-            }
+        match model {
+            Some(model) => turn_drifts(
+                model, voxels, &reader, anchors, turns, radii, thresholds, backend,
+            ),
+            None => Ok(vec![0.0; anchors.len()]),
         }
-        Ok(worst)
     };
-    // The median drift to the surface voxels around the anchor: a copy's
-    // candidate is one of them as often as it is the anchor's twin.
     let reach = (NEIGHBOUR_REACH * spacing as f64).max(1.0);
-    let roughness = |a: [u16; 3]| -> f64 {
-        let here = reader.at(a);
-        let mut drifts: Vec<f64> = voxels
-            .skin()
-            .iter()
-            .filter(|n| **n != a && offset(n, a).length() <= reach)
-            .map(|&n| here.drift(&reader.at(n), radii, spec.voxel_size, thresholds))
-            .collect();
-        drifts.sort_by(f64::total_cmp);
-        drifts.get(drifts.len() / 2).copied().unwrap_or(0.0)
-    };
+    let roughness = |a: [u16; 3]| roughness(voxels, &reader, a, reach, radii, thresholds);
     // One turn tells a drifting c_T; both choose among the others.
     let own_turn = turn_drift(&[center], &TURNS[..1])?[0];
     let own_rough = roughness(center);
@@ -130,6 +97,7 @@ pub(super) fn stable_anchor(
         return Ok(Anchor {
             voxel: center,
             rough: false,
+            steady: true,
         });
     }
     // A turning template may need to move far (a teapot's lid), and is
@@ -148,6 +116,7 @@ pub(super) fn stable_anchor(
         voxels.skin(),
         center,
         reach / spec.voxel_size,
+        ALTERNATIVES,
     ));
     let turns = turn_drift(&anchors, &TURNS)?;
     // c_T's is known; a turning template's others are read for the winner
@@ -184,7 +153,132 @@ pub(super) fn stable_anchor(
     Ok(Anchor {
         voxel,
         rough: rough > ROUGH_DRIFT,
+        steady: false,
     })
+}
+
+/// Further anchors of a model template, besides `primary`: up to
+/// [`FURTHER_ANCHORS`] surface voxels at least [`FURTHER_APART`] r_k from
+/// it and from each other, each stable under both tests of
+/// [`stable_anchor`] (turning, and against its neighbours), the most stable
+/// first. A copy whose primary anchor is cluttered (other material within
+/// the always-counted inner layers, which no rule excuses) is found at
+/// another, where its own surroundings are clean.
+pub(super) fn further_anchors(
+    model: &TriMesh,
+    voxels: &PartVoxels,
+    primary: [u16; 3],
+    radii: &[f64],
+    thresholds: Thresholds,
+    spacing: u32,
+    backend: Backend,
+) -> Result<Vec<[u16; 3]>> {
+    let transform = SphericalTransform::new();
+    let spec = voxels.grid().spec();
+    let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
+    let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
+    let outer = radii[radii.len() - 1] / spec.voxel_size;
+    let apart = FURTHER_APART * outer;
+    let mut spread = spread_within(voxels.skin(), primary, outer, FURTHER_TRIED);
+    spread.retain(|v| offset(v, primary).length() >= apart);
+    let turns = turn_drifts(
+        model, voxels, &reader, &spread, &TURNS, radii, thresholds, backend,
+    )?;
+    let reach = (NEIGHBOUR_REACH * spacing as f64).max(1.0);
+    let mut ranked: Vec<(f64, [u16; 3])> = spread
+        .iter()
+        .zip(turns)
+        .map(|(&v, turn)| {
+            let rough = roughness(voxels, &reader, v, reach, radii, thresholds);
+            ((turn / STABLE_DRIFT).max(rough / ROUGH_DRIFT), v)
+        })
+        .collect();
+
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut chosen: Vec<[u16; 3]> = Vec::new();
+    for (_, v) in ranked {
+        if chosen.len() < FURTHER_ANCHORS && chosen.iter().all(|c| offset(c, v).length() >= apart) {
+            chosen.push(v);
+        }
+    }
+    Ok(chosen)
+}
+
+/// Further anchors a model template gets: with the primary, three reads of
+/// each candidate's descriptor where one did.
+pub(super) const FURTHER_ANCHORS: usize = 2;
+
+/// Further anchors lie at least this share of r_k from the primary and from
+/// each other: beyond the inner third of the onion that always counts, so
+/// that clutter at one is outside another's inner layers.
+const FURTHER_APART: f64 = 0.5;
+
+/// Surface voxels spread over the template that are tested for further
+/// anchors.
+const FURTHER_TRIED: usize = 12;
+
+/// The largest drift, over `turns`, of the descriptors at each of `anchors`
+/// when `model` (voxelized on `voxels`' grid) is turned: nothing can be
+/// read that is not its own.
+#[allow(clippy::too_many_arguments)]
+fn turn_drifts(
+    model: &TriMesh,
+    voxels: &PartVoxels,
+    reader: &Reader,
+    anchors: &[[u16; 3]],
+    turns: &[glam::DQuat],
+    radii: &[f64],
+    thresholds: Thresholds,
+    backend: Backend,
+) -> Result<Vec<f64>> {
+    let spec = voxels.grid().spec();
+    let mut worst = vec![0.0f64; anchors.len()];
+    let own: Vec<Descriptors> = anchors.iter().map(|&v| reader.at(v)).collect();
+    for &turn in turns {
+        let turned = model.map_positions(|p| turn * p)?;
+        let turned_spec = GridSpec::around(turned.bounds(), spec.voxel_size)?;
+        let turned_voxels = PartVoxels::build(&turned, &turned_spec, backend);
+        let there = Reader::new(
+            &turned_voxels,
+            reader.balls,
+            radii,
+            thresholds,
+            reader.transform,
+            backend,
+        );
+        for (i, &v) in anchors.iter().enumerate() {
+            let p = turn * spec.center(v);
+            let Some(w) = nearest_voxel(&turned_spec, turned_voxels.skin(), p) else {
+                continue;
+            };
+            let drift = own[i].drift(&there.at(w), radii, spec.voxel_size, thresholds);
+            worst[i] = worst[i].max(drift);
+        }
+    }
+    Ok(worst)
+}
+
+/// The median drift from anchor `a` to the surface voxels within `reach`
+/// voxels of it: a copy's candidate is one of them as often as it is the
+/// anchor's twin.
+fn roughness(
+    voxels: &PartVoxels,
+    reader: &Reader,
+    a: [u16; 3],
+    reach: f64,
+    radii: &[f64],
+    thresholds: Thresholds,
+) -> f64 {
+    let voxel = voxels.grid().spec().voxel_size;
+    let here = reader.at(a);
+    let mut drifts: Vec<f64> = voxels
+        .skin()
+        .iter()
+        .filter(|n| **n != a && offset(n, a).length() <= reach)
+        .map(|&n| here.drift(&reader.at(n), radii, voxel, thresholds))
+        .collect();
+    drifts.sort_by(f64::total_cmp);
+    drifts.get(drifts.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The anchor chosen, and whether it is still rough: then no candidate
@@ -193,6 +287,10 @@ pub(super) fn stable_anchor(
 pub(super) struct Anchor {
     pub voxel: [u16; 3],
     pub rough: bool,
+    /// c_T passed both tests and is the anchor. Otherwise copies may be
+    /// lost at whatever anchor is chosen, and [`further_anchors`] are read
+    /// too.
+    pub steady: bool,
 }
 
 /// c_T is kept unless the median drift to its neighbours exceeds this
@@ -223,9 +321,9 @@ const TURNS: [glam::DQuat; 2] = [
     glam::DQuat::from_xyzw(-0.745_269, 0.372_634, 0.372_634, 0.408_487),
 ];
 
-/// Up to [`ALTERNATIVES`] skin voxels within `reach` voxels of `center`,
-/// spread by farthest-point sampling from it.
-fn spread_within(skin: &[[u16; 3]], center: [u16; 3], reach: f64) -> Vec<[u16; 3]> {
+/// Up to `count` skin voxels within `reach` voxels of `center`, spread by
+/// farthest-point sampling from it.
+fn spread_within(skin: &[[u16; 3]], center: [u16; 3], reach: f64, count: usize) -> Vec<[u16; 3]> {
     let offset = |v: &[u16; 3]| offset(v, center);
     let near: Vec<[u16; 3]> = skin
         .iter()
@@ -234,7 +332,7 @@ fn spread_within(skin: &[[u16; 3]], center: [u16; 3], reach: f64) -> Vec<[u16; 3
         .collect();
     let mut gap: Vec<f64> = near.iter().map(|v| offset(v).length()).collect();
     let mut picked = Vec::new();
-    for _ in 0..ALTERNATIVES {
+    for _ in 0..count {
         let Some((i, &g)) = gap.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
             break;
         };

@@ -2,7 +2,7 @@
 //! its descriptors are read from (its own anchor part's for a model, the
 //! selected scene part's for a selection).
 
-use super::anchor::{Anchor, Thresholds, stable_anchor};
+use super::anchor::{Anchor, Thresholds, further_anchors, stable_anchor};
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
@@ -31,6 +31,7 @@ fn choose_anchor(
         return Ok(Anchor {
             voxel: nearest,
             rough: false,
+            steady: true,
         });
     }
     stable_anchor(
@@ -58,7 +59,8 @@ pub struct VoxelTemplate {
     parts: Parts,
     /// No copy can lie on a part whose bounding sphere is smaller.
     min_part_radius: f64,
-    voxel: [u16; 3],
+    /// The voxels its descriptors are read at, the primary first.
+    anchors: Vec<[u16; 3]>,
     candidate_spacing: u32,
 }
 
@@ -82,117 +84,145 @@ impl VoxelTemplate {
         let (layers, backend) = (options.layers, options.backend);
         check_layers(layers)?;
         let voxel_size = lattice.spec.voxel_size;
-        let (center, radius, voxels, scene_part, parts, min_part_radius, anchor) = match source {
-            TemplateSource::Model(model) => {
-                let sphere = bounding_sphere(model);
-                check_extent(2.0 * sphere.radius, scene, false)?;
-                let parts = if connected_components(model).len() == 1 {
-                    Parts::Components
-                } else {
-                    Parts::OverlappingBoxes
-                };
-                let spec = GridSpec::around(model.bounds(), voxel_size)?;
-                // The anchor's test voxelizes it turned: within the cube
-                // around its bounding sphere.
-                let turned = GridSpec::around(
-                    Aabb {
-                        min: sphere.center - Vec3::splat(sphere.radius),
-                        max: sphere.center + Vec3::splat(sphere.radius),
-                    },
-                    voxel_size,
-                )?;
-                check_voxel_work(
-                    "template",
-                    model,
-                    voxel_size,
-                    lattice.resolution,
-                    scene.max_voxel_work(),
-                )?;
-                let mut estimate = scene.mesh_estimate();
-                estimate
-                    .add(
-                        "the template's mesh",
-                        mesh_bytes(model.positions().len(), model.triangles().len()),
+        let (center, radius, voxels, scene_part, parts, min_part_radius, anchor, anchors) =
+            match source {
+                TemplateSource::Model(model) => {
+                    let sphere = bounding_sphere(model);
+                    check_extent(2.0 * sphere.radius, scene, false)?;
+                    let parts = if connected_components(model).len() == 1 {
+                        Parts::Components
+                    } else {
+                        Parts::OverlappingBoxes
+                    };
+                    let spec = GridSpec::around(model.bounds(), voxel_size)?;
+                    // The anchor's test voxelizes it turned: within the cube
+                    // around its bounding sphere.
+                    let turned = GridSpec::around(
+                        Aabb {
+                            min: sphere.center - Vec3::splat(sphere.radius),
+                            max: sphere.center + Vec3::splat(sphere.radius),
+                        },
+                        voxel_size,
+                    )?;
+                    check_voxel_work(
+                        "template",
+                        model,
+                        voxel_size,
+                        lattice.resolution,
+                        scene.max_voxel_work(),
+                    )?;
+                    let mut estimate = scene.mesh_estimate();
+                    estimate
+                        .add(
+                            "the template's mesh",
+                            mesh_bytes(model.positions().len(), model.triangles().len()),
+                        )
+                        .add("the template's voxel grids", voxel_bytes(&spec))
+                        .add(
+                            "the template turned (its anchor's test)",
+                            voxel_bytes(&turned),
+                        );
+                    estimate.check(scene.memory_budget(), || {
+                        format!(
+                            "lower the resolution (now {}), or raise the memory budget",
+                            lattice.resolution
+                        )
+                    })?;
+                    let voxels = PartVoxels::build(model, &spec, backend);
+                    // The surface of the template is the boundary of its solid:
+                    // with overlapping shells, the nearest point of a mesh may be
+                    // buried inside another shell. So: the nearest skin voxel,
+                    // then the mesh point nearest to it.
+                    let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center)
+                        .expect("a voxelized mesh has skin");
+                    let center = model.closest_point(spec.center(nearest)).point;
+                    let radius = model
+                        .positions()
+                        .iter()
+                        .map(|&p| from_f32(p).distance(center))
+                        .fold(0.0, f64::max);
+                    let anchor =
+                        choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
+                    // Where c_T's descriptors drift, a copy lost at the
+                    // anchor chosen instead may be found at another.
+                    let mut anchors = vec![anchor.voxel];
+                    if !anchor.steady {
+                        anchors.extend(further_anchors(
+                            model,
+                            &voxels,
+                            anchor.voxel,
+                            &evenly_spaced(radius, layers),
+                            Thresholds::of(options),
+                            options.candidate_spacing,
+                            backend,
+                        )?);
+                    }
+                    let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
+                    (
+                        center,
+                        radius,
+                        voxels,
+                        None,
+                        parts,
+                        min_part_radius,
+                        anchor,
+                        anchors,
                     )
-                    .add("the template's voxel grids", voxel_bytes(&spec))
-                    .add(
-                        "the template turned (its anchor's test)",
-                        voxel_bytes(&turned),
-                    );
-                estimate.check(scene.memory_budget(), || {
-                    format!(
-                        "lower the resolution (now {}), or raise the memory budget",
-                        lattice.resolution
-                    )
-                })?;
-                let voxels = PartVoxels::build(model, &spec, backend);
-                // The surface of the template is the boundary of its solid:
-                // with overlapping shells, the nearest point of a mesh may be
-                // buried inside another shell. So: the nearest skin voxel,
-                // then the mesh point nearest to it.
-                let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center)
-                    .expect("a voxelized mesh has skin");
-                let center = model.closest_point(spec.center(nearest)).point;
-                let radius = model
-                    .positions()
-                    .iter()
-                    .map(|&p| from_f32(p).distance(center))
-                    .fold(0.0, f64::max);
-                let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
-                let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
-                (center, radius, voxels, None, parts, min_part_radius, anchor)
-            }
-            &TemplateSource::Selection { center, radius } => {
-                let snapped = snap_selection(scene, center, radius)?;
-                check_extent(radius, scene, true)?;
-                let nearest = scene.mesh().closest_point(snapped);
-                let part = scene.part_of_triangle(nearest.triangle);
-                // The search's ball tables first: they grow faster with the
-                // radius than the part's grid.
-                let mut held = scene.mesh_estimate();
-                let radii_voxels: Vec<f64> = evenly_spaced(radius, layers)
-                    .iter()
-                    .map(|r| r / voxel_size)
-                    .collect();
-                add_ball_tables(&mut held, &radii_voxels);
-                held.check(scene.memory_budget(), || {
+                }
+                &TemplateSource::Selection { center, radius } => {
+                    let snapped = snap_selection(scene, center, radius)?;
+                    check_extent(radius, scene, true)?;
+                    let nearest = scene.mesh().closest_point(snapped);
+                    let part = scene.part_of_triangle(nearest.triangle);
+                    // The search's ball tables first: they grow faster with the
+                    // radius than the part's grid.
+                    let mut held = scene.mesh_estimate();
+                    let radii_voxels: Vec<f64> = evenly_spaced(radius, layers)
+                        .iter()
+                        .map(|r| r / voxel_size)
+                        .collect();
+                    add_ball_tables(&mut held, &radii_voxels);
+                    held.check(scene.memory_budget(), || {
                     format!(
                         "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
                         radius / voxel_size,
                         lattice.resolution
                     )
                 })?;
-                let voxels = scene.voxelize_part(
-                    &scene.parts(Parts::Components)[part],
-                    lattice,
-                    radius / voxel_size,
-                    &held,
-                )?;
-                let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
-                    .expect("a part has skin");
-                let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
-                // The selected material holds c_T and every selected vertex,
-                // so its bounding sphere is at least half their distance.
-                let mesh = scene.mesh();
-                let reach = scene.parts(Parts::Components)[part]
-                    .triangles()
-                    .iter()
-                    .flat_map(|&t| mesh.corners(t as usize))
-                    .map(|p| p.distance(snapped))
-                    .filter(|&d| d <= radius)
-                    .fold(0.0, f64::max);
-                let min_part_radius = PART_RADIUS_SLACK * reach / 2.0;
-                (
-                    snapped,
-                    radius,
-                    voxels,
-                    Some(part),
-                    Parts::Components,
-                    min_part_radius,
-                    anchor,
-                )
-            }
-        };
+                    let voxels = scene.voxelize_part(
+                        &scene.parts(Parts::Components)[part],
+                        lattice,
+                        radius / voxel_size,
+                        &held,
+                    )?;
+                    let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
+                        .expect("a part has skin");
+                    let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
+                    // The selected material holds c_T and every selected vertex,
+                    // so its bounding sphere is at least half their distance.
+                    let mesh = scene.mesh();
+                    let reach = scene.parts(Parts::Components)[part]
+                        .triangles()
+                        .iter()
+                        .flat_map(|&t| mesh.corners(t as usize))
+                        .map(|p| p.distance(snapped))
+                        .filter(|&d| d <= radius)
+                        .fold(0.0, f64::max);
+                    let min_part_radius = PART_RADIUS_SLACK * reach / 2.0;
+                    // One anchor: another, away from c_T, would read beyond the
+                    // sphere, material the selection did not take.
+                    (
+                        snapped,
+                        radius,
+                        voxels,
+                        Some(part),
+                        Parts::Components,
+                        min_part_radius,
+                        anchor,
+                        vec![anchor.voxel],
+                    )
+                }
+            };
         let first = radius / layers as f64;
         if first / voxel_size < MIN_RADIUS_VOXELS {
             return Err(too_small(first / voxel_size, lattice.resolution));
@@ -205,7 +235,7 @@ impl VoxelTemplate {
             scene_part,
             parts,
             min_part_radius,
-            voxel: anchor.voxel,
+            anchors,
             // Neighbours of a rough anchor are no stand-ins for it.
             candidate_spacing: if anchor.rough {
                 1
@@ -261,9 +291,11 @@ impl VoxelTemplate {
         self.min_part_radius
     }
 
-    /// The voxel the template's descriptors are computed at.
-    pub fn voxel(&self) -> [u16; 3] {
-        self.voxel
+    /// The voxels the template's descriptors are computed at, the primary
+    /// (c_T's, or the steadiest near it) first: a copy is found where any
+    /// of them matches.
+    pub fn anchors(&self) -> &[[u16; 3]] {
+        &self.anchors
     }
 
     /// One candidate per cube of this many voxels: the option's, or 1
@@ -273,10 +305,15 @@ impl VoxelTemplate {
         self.candidate_spacing
     }
 
-    /// c_T relative to the centre of [`VoxelTemplate::voxel`], in voxels.
-    pub fn center_offset(&self) -> Vec3 {
+    /// c_T relative to the centre of anchor `anchor`, in voxels.
+    pub fn center_offset(&self, anchor: usize) -> Vec3 {
         let spec = self.voxels.grid().spec();
-        (self.center - spec.center(self.voxel)) * (1.0 / spec.voxel_size)
+        (self.center - spec.center(self.anchors[anchor])) * (1.0 / spec.voxel_size)
+    }
+
+    /// Where anchor `anchor` lies in the template's coordinates.
+    pub fn anchor_position(&self, anchor: usize) -> Vec3 {
+        self.voxels.grid().spec().center(self.anchors[anchor])
     }
 }
 

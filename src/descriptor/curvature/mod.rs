@@ -37,6 +37,7 @@ pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 pub use surface::{CurvedEdge, Edge, Surface};
 
 use super::OnionDescriptor;
+use crate::cascade::Anchors;
 use crate::math::Vec3;
 use bounds::{BOUND_MARGIN, gaussian_bounds};
 use neighbourhood::{add_cut_areas, add_cut_edges, gather, grow_layer};
@@ -128,7 +129,7 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
         self.threshold
     }
 
-    fn start(&self, point: u32) -> CurvatureState {
+    fn start(&self, point: u32, _anchors: Anchors) -> CurvatureState {
         CurvatureState::at(self.surface, point)
     }
 

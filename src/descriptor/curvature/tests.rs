@@ -203,7 +203,7 @@ fn rejecting_by_the_bounds_keeps_what_the_exact_values_keep() {
     let (mut kept, mut by_bound) = (0, 0);
     for v in 0..s.vertex_count() as u32 {
         let exact = CurvatureDescriptor::describe(&s, v, &radii);
-        let mut state = d.start(v);
+        let mut state = d.start(v, 1);
         let mut running = 0.0;
         for layer in 0..radii.len() {
             let step = exact[layer] * scale - template[layer] * scale;
@@ -235,7 +235,7 @@ fn the_cascade_distance_grows_layer_by_layer() {
     let radii = [0.2, 0.4];
     let d = CurvatureDescriptor::new(&s, &radii, &[0.0, 0.0], 10.0);
     let v = nearest_vertex(&s, Vec3::new(1.0, 0.0, 0.0));
-    let mut state = d.start(v);
+    let mut state = d.start(v, 1);
     let first = d.extend(v, 0, &mut state);
     let second = d.extend(v, 1, &mut state);
     // Each layer adds (r_k^2 * (1 - 0))^2 = 0.0256.

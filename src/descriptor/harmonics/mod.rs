@@ -42,6 +42,8 @@ mod transform;
 pub use sampler::{BLOCKS_PER_RADIUS, SphereSampler};
 pub use transform::SphericalTransform;
 
+use super::volume::closest;
+use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
 use crate::voxel::{Ball, Solid};
 
@@ -112,22 +114,25 @@ pub struct HarmonicsDescriptor<'a> {
     clutter: Option<ClutterGuard<'a>>,
     /// Leading spheres that always count (see [`super::clutter`]).
     clean_layers: usize,
-    template: Vec<Signature>,
+    /// The template's signatures, one list per anchor.
+    templates: Vec<Vec<Signature>>,
     threshold: f64,
 }
 
 impl<'a> HarmonicsDescriptor<'a> {
     /// A stage over candidate voxels `points` of the scene `solid`, with the
-    /// template's signatures at the same radii (world units).
+    /// template's signatures at the same radii (world units), one list per
+    /// anchor.
     pub fn new(
         solid: &'a Solid,
         points: &'a [[u16; 3]],
         transform: &'a SphericalTransform,
         radii: &[f64],
-        template: Vec<Signature>,
+        templates: Vec<Vec<Signature>>,
         threshold: f64,
         backend: Backend,
     ) -> Self {
+        assert!((1..=MAX_ANCHORS).contains(&templates.len()));
         let voxel = solid.bits().spec().voxel_size;
         HarmonicsDescriptor {
             solid,
@@ -141,7 +146,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             weights: layer_weights(radii, voxel),
             clutter: None,
             clean_layers: usize::MAX,
-            template,
+            templates,
             threshold,
         }
     }
@@ -188,18 +193,22 @@ pub struct ClutterGuard<'a> {
     pub policy: ClutterPolicy,
     /// Balls at the stage's radii, bound to the scene's solid.
     pub balls: &'a [Ball],
-    /// The template's solid fraction at each radius.
-    pub template: &'a [f64],
+    /// The template's solid fraction at each radius, per anchor.
+    pub templates: &'a [Vec<f64>],
 }
 
-/// The running state of a point in the harmonics stage.
+/// The running state of a point in the harmonics stage, per anchor.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HarmonicsState {
     /// Weighted squared differences of the spheres compared so far.
-    sum2: f64,
+    sum2: [f64; MAX_ANCHORS],
     /// The first cluttered sphere met: it and the larger ones are not
     /// compared, and the point is judged over the spheres inside it.
-    excused_at: Option<usize>,
+    /// (Layer numbers above u16 are refused by the memory budget long
+    /// before: every layer has its own ball tables.)
+    excused_at: [Option<u16>; MAX_ANCHORS],
+    /// Anchors still matched.
+    alive: Anchors,
 }
 
 impl OnionDescriptor for HarmonicsDescriptor<'_> {
@@ -239,7 +248,9 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                     .collect();
                 let passes = backend.map(sample.len(), |i| {
                     let p = sample[i];
-                    let pass = |layer| self.extend(p, layer, &mut self.start(p)) <= self.threshold;
+                    let pass = |layer| {
+                        self.extend(p, layer, &mut self.start(p, Anchors::MAX)) <= self.threshold
+                    };
                     [pass(clean - 1), pass(clean)]
                 });
                 let count = |lead: usize| passes.iter().filter(|p| p[lead]).count();
@@ -248,50 +259,63 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         ClutterPolicy::selective_order(clean, k, excusable_first)
     }
 
-    fn start(&self, _point: u32) -> HarmonicsState {
-        HarmonicsState::default()
+    fn start(&self, _point: u32, anchors: Anchors) -> HarmonicsState {
+        HarmonicsState {
+            alive: anchors & all_anchors(self.templates.len()),
+            ..HarmonicsState::default()
+        }
+    }
+
+    fn anchors(&self, state: &HarmonicsState) -> Anchors {
+        state.alive
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
         let excusable = layer >= self.clean_layers;
-        // Excusable spheres come outward: this one lies beyond the first
-        // cluttered sphere and is not compared.
-        if excusable && state.excused_at.is_some() {
-            return state.sum2.sqrt();
-        }
         let v = self.points[point as usize];
         let guard = self.clutter.as_ref().filter(|_| excusable);
-        let cluttered_ball = guard.is_some_and(|g| {
-            g.balls[layer].fraction(self.solid, v) - g.template[layer] > g.policy.volume_tolerance
-        });
-        // Degree 0 of the signature is the sphere's mean occupancy.
-        let sig = (!cluttered_ball)
-            .then(|| describe_sphere(self.solid, v, &self.spheres[layer], self.transform));
-        let cluttered = cluttered_ball
-            || guard.is_some_and(|g| {
-                sig.is_some_and(|s| {
-                    (s[0] - self.template[layer][0]) as f64 > g.policy.sphere_tolerance
-                })
-            });
-        match sig {
-            Some(sig) if !cluttered => {
-                state.sum2 +=
-                    self.weights[layer] * signature_distance2(&sig, &self.template[layer]);
-            }
-            _ => state.excused_at = Some(layer),
-        }
-        // Compared over the `e` spheres inside the first cluttered one only:
-        // their root mean square must meet the threshold (the weights carry
-        // 1 / k). The spheres inside it still to come only add to the sum.
-        let budget = match state.excused_at {
-            Some(e) => self.threshold.powi(2) * e as f64 / self.spheres.len() as f64,
-            None => self.threshold.powi(2),
+        // The scene's side is read once, and only if some anchor compares
+        // it: excusable spheres come outward, so one beyond an anchor's
+        // first cluttered sphere is not compared for it.
+        let compared =
+            |a: usize| state.alive & (1 << a) != 0 && !(excusable && state.excused_at[a].is_some());
+        let compares = (0..self.templates.len()).filter(|&a| compared(a));
+        let fraction = guard.map(|g| g.balls[layer].fraction(self.solid, v));
+        let ball_clean = |a: usize| match (guard, fraction) {
+            (Some(g), Some(f)) => f - g.templates[a][layer] <= g.policy.volume_tolerance,
+            _ => true,
         };
-        if state.sum2 > budget {
-            f64::INFINITY
-        } else {
-            state.sum2.sqrt()
+        let mut sig = None;
+        for a in compares.collect::<Vec<_>>() {
+            // Degree 0 of the signature is the sphere's mean occupancy.
+            let clean = ball_clean(a) && {
+                let s = sig.get_or_insert_with(|| {
+                    describe_sphere(self.solid, v, &self.spheres[layer], self.transform)
+                });
+                guard.is_none_or(|g| {
+                    ((s[0] - self.templates[a][layer][0]) as f64) <= g.policy.sphere_tolerance
+                })
+            };
+            if clean {
+                let s = sig.as_ref().expect("read for a clean sphere");
+                state.sum2[a] +=
+                    self.weights[layer] * signature_distance2(s, &self.templates[a][layer]);
+            } else {
+                state.excused_at[a] = Some(layer.min(usize::from(u16::MAX)) as u16);
+            }
+            // Compared over the `e` spheres inside the first cluttered one
+            // only: their root mean square must meet the threshold (the
+            // weights carry 1 / k). The spheres inside it still to come
+            // only add to the sum.
+            let budget = match state.excused_at[a] {
+                Some(e) => self.threshold.powi(2) * f64::from(e) / self.spheres.len() as f64,
+                None => self.threshold.powi(2),
+            };
+            if state.sum2[a] > budget {
+                state.alive &= !(1 << a);
+            }
         }
+        closest(&state.sum2, state.alive).sqrt()
     }
 }
 

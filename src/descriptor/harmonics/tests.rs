@@ -265,15 +265,15 @@ fn innermost_first(
     for j in 0..k {
         let sig = describe_sphere(h.solid, v, &h.spheres[j], h.transform);
         let cluttered = j >= clean
-            && (guard.balls[j].fraction(h.solid, v) - guard.template[j]
+            && (guard.balls[j].fraction(h.solid, v) - guard.templates[0][j]
                 > guard.policy.volume_tolerance
-                || (sig[0] - h.template[j][0]) as f64 > guard.policy.sphere_tolerance);
+                || (sig[0] - h.templates[0][j][0]) as f64 > guard.policy.sphere_tolerance);
         if cluttered {
             // Judged over the j spheres inside: their mean must pass.
             let passes = sum2 * k as f64 / j as f64 <= threshold2;
             return (passes.then_some(sum2.sqrt()), true);
         }
-        sum2 += h.weights[j] * signature_distance2(&sig, &h.template[j]);
+        sum2 += h.weights[j] * signature_distance2(&sig, &h.templates[0][j]);
         if sum2 > threshold2 {
             return (None, false);
         }
@@ -281,26 +281,15 @@ fn innermost_first(
     (Some(sum2.sqrt()), false)
 }
 
-#[test]
-fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
-    use crate::cascade::run_cascade;
-    use crate::descriptor::VolumeDescriptor;
-    let t = SphericalTransform::new();
-    let voxel = 0.05;
-    let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
-    // Template: the lumpy shape; scene: a copy with a slab beside it
-    // (clutter for the outer spheres of the points on that side) and a
-    // torus nearby.
+/// The lumpy template with a slab beside its copy (clutter for the outer
+/// spheres of the points on that side) and a torus nearby: the template's
+/// solid, its surface voxel nearest `near`, the scene's solid and skin
+/// voxels.
+fn cluttered_lumpy(voxel: f64, near: Vec3) -> (Solid, [u16; 3], Solid, Vec<[u16; 3]>) {
     let template_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
     let tspec = GridSpec::around(template_mesh.bounds(), voxel).unwrap();
     let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Backend::Serial));
-    let tv = skin(tsolid.bits(), Backend::Serial)
-        .iter_ones()
-        .min_by(|a, b| {
-            let d = |v: &[u16; 3]| tspec.center(*v).distance(Vec3::new(0.0, 0.6, 0.0));
-            d(a).total_cmp(&d(b))
-        })
-        .unwrap();
+    let tv = surface_voxel_near(&tsolid, near);
     let mut scene_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
     scene_mesh.append(&cuboid(
         Vec3::new(-1.6, -0.9, -0.9),
@@ -310,18 +299,46 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     let spec = GridSpec::around(scene_mesh.bounds(), voxel).unwrap();
     let solid = Solid::new(voxelize(&scene_mesh, &spec, Backend::Serial));
     let points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
+    (tsolid, tv, solid, points)
+}
+
+/// The skin voxel of `solid` nearest `p`.
+fn surface_voxel_near(solid: &Solid, p: Vec3) -> [u16; 3] {
+    let spec = solid.bits().spec();
+    skin(solid.bits(), Backend::Serial)
+        .iter_ones()
+        .min_by(|a, b| {
+            let d = |v: &[u16; 3]| spec.center(*v).distance(p);
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap()
+}
+
+#[test]
+fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
+    use crate::cascade::run_cascade;
+    use crate::descriptor::VolumeDescriptor;
+    let t = SphericalTransform::new();
+    let voxel = 0.05;
+    let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
+    let (tsolid, tv, solid, points) = cluttered_lumpy(voxel, Vec3::new(0.0, 0.6, 0.0));
     let volume = VolumeDescriptor::new(
         &solid,
         &points,
         &radii,
-        VolumeDescriptor::describe(&tsolid, tv, &radii, Backend::Serial),
+        vec![VolumeDescriptor::describe(
+            &tsolid,
+            tv,
+            &radii,
+            Backend::Serial,
+        )],
         1.0,
         Backend::Serial,
     );
     let guard = ClutterGuard {
         policy: ClutterPolicy::DEFAULT,
         balls: volume.balls(),
-        template: volume.template(),
+        templates: volume.templates(),
     };
     let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Backend::Serial);
     let stage = |threshold: f64| {
@@ -330,7 +347,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
             &points,
             &t,
             &radii,
-            template.clone(),
+            vec![template.clone()],
             threshold,
             Backend::Serial,
         )
@@ -372,7 +389,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
         let order = ClutterPolicy::selective_order(clean, radii.len(), excusable_first);
         let passed: Vec<(u32, f64)> = (0..points.len() as u32)
             .filter_map(|p| {
-                let mut state = h.start(p);
+                let mut state = h.start(p, 1);
                 let mut d = 0.0;
                 for &layer in &order {
                     d = h.extend(p, layer, &mut state);
@@ -393,11 +410,104 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     let candidates: Vec<u32> = (0..points.len() as u32).collect();
     let order = h.order(&candidates, Backend::Serial);
     assert!(order == [3, 4, 5, 2, 1, 0] || order == [4, 5, 3, 2, 1, 0]);
-    let (survivors, stats) = run_cascade(&[&h], candidates, Backend::Serial, &mut ()).unwrap();
+    let (survivors, stats) = run_cascade(&[&h], candidates, 1, Backend::Serial, &mut ()).unwrap();
     assert_eq!(stats.iter().map(|s| s.layer - 1).collect::<Vec<_>>(), order);
     assert_eq!(survivors.len(), oracle.len());
     for (s, (point, distance)) in survivors.iter().zip(&oracle) {
         assert_eq!(s.point, *point);
         assert!((s.distance - distance).abs() <= 1e-9 * distance.max(1.0));
+    }
+}
+
+#[test]
+fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
+    use crate::cascade::{Survivor, run_cascade};
+    use crate::descriptor::VolumeDescriptor;
+    use std::collections::BTreeMap;
+    let t = SphericalTransform::new();
+    let voxel = 0.05;
+    let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
+    let (tsolid, first, solid, points) = cluttered_lumpy(voxel, Vec3::new(0.0, 0.6, 0.0));
+    let second = surface_voxel_near(&tsolid, Vec3::new(1.0, -0.5, 0.3));
+    let volume = |anchors: &[[u16; 3]]| {
+        let templates = anchors
+            .iter()
+            .map(|&a| VolumeDescriptor::describe(&tsolid, a, &radii, Backend::Serial))
+            .collect();
+        VolumeDescriptor::new(&solid, &points, &radii, templates, 0.4, Backend::Serial)
+            .with_clutter(ClutterPolicy::DEFAULT)
+    };
+    let run = |anchors: &[[u16; 3]]| -> Vec<Survivor> {
+        let v = volume(anchors);
+        let h = HarmonicsDescriptor::new(
+            &solid,
+            &points,
+            &t,
+            &radii,
+            anchors
+                .iter()
+                .map(|&a| HarmonicsDescriptor::describe(&tsolid, a, &radii, &t, Backend::Serial))
+                .collect(),
+            2.0,
+            Backend::Serial,
+        )
+        .with_clutter(ClutterGuard {
+            policy: ClutterPolicy::DEFAULT,
+            balls: v.balls(),
+            templates: v.templates(),
+        });
+        let candidates = (0..points.len() as u32).collect();
+        let all = crate::cascade::all_anchors(anchors.len());
+        run_cascade(&[&v, &h], candidates, all, Backend::Parallel, &mut ())
+            .unwrap()
+            .0
+    };
+    let by_point = |s: Vec<Survivor>| -> BTreeMap<u32, Survivor> {
+        s.into_iter().map(|s| (s.point, s)).collect()
+    };
+    let (a, b) = (by_point(run(&[first])), by_point(run(&[second])));
+    let both = by_point(run(&[first, second]));
+    // Each anchor alone passes points the other rejects, and not every
+    // point: otherwise the union proves little.
+    let only = |x: &BTreeMap<u32, Survivor>, y: &BTreeMap<u32, Survivor>| {
+        x.keys().filter(|p| !y.contains_key(p)).count()
+    };
+    assert!(
+        only(&a, &b) > 5 && only(&b, &a) > 5,
+        "{} {}",
+        only(&a, &b),
+        only(&b, &a)
+    );
+    assert!(
+        a.len() + b.len() < points.len() / 2,
+        "{} {}",
+        a.len(),
+        b.len()
+    );
+    let union: Vec<u32> = a
+        .keys()
+        .chain(b.keys())
+        .copied()
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    assert_eq!(both.keys().copied().collect::<Vec<_>>(), union);
+    for (p, s) in &both {
+        let (in_a, in_b) = (a.get(p), b.get(p));
+        assert_eq!(
+            s.anchors,
+            u8::from(in_a.is_some()) | u8::from(in_b.is_some()) << 1,
+            "{p}"
+        );
+        let d = in_a
+            .iter()
+            .chain(&in_b)
+            .map(|s| s.distance)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (s.distance - d).abs() <= 1e-9 * d.max(1.0),
+            "{p}: {} vs {d}",
+            s.distance
+        );
     }
 }
