@@ -4,6 +4,7 @@
 //! (`curvature.rs`: on the welded mesh's vertices).
 
 mod curvature;
+mod near_vertices;
 mod options;
 mod report;
 mod voxel;

@@ -3,6 +3,7 @@
 //! volume and harmonics stages, then verification by placement and
 //! grouping.
 
+use super::near_vertices::{self, NearVertices, template_gap};
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
@@ -91,6 +92,31 @@ pub(super) fn search_voxels(
     // is the copy's own (see `Verifier::check`).
     let two_sided = template.parts() == Parts::Components;
     let samples = template_samples(source, scene, &template);
+    // A copy's anchor lies as near a vertex of its part as the template's
+    // anchors lie near one of the template's.
+    let mesh = scene.mesh();
+    let anchor_points: Vec<Vec3> = (0..anchors.len())
+        .map(|a| template.anchor_position(a))
+        .collect();
+    let gap = match source {
+        TemplateSource::Model(model) => template_gap(
+            &anchor_points,
+            (0..model.triangles().len()).flat_map(|t| model.corners(t)),
+        ),
+        TemplateSource::Selection { .. } => {
+            let part = template
+                .scene_part()
+                .expect("a selection lies on a scene part");
+            template_gap(
+                &anchor_points,
+                scene.parts(Parts::Components)[part]
+                    .triangles()
+                    .iter()
+                    .flat_map(|&t| mesh.corners(t as usize)),
+            )
+        }
+    };
+    let vertex_reach = near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]);
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
     for (i, part) in parts {
@@ -103,9 +129,22 @@ pub(super) fn search_voxels(
             &fresh
         };
         let t1 = now_ms();
-        let candidates = spaced(voxels.skin(), template.candidate_spacing() as u16);
+        let near = NearVertices::new(mesh, part.triangles(), part.bounds(), vertex_reach, backend);
+        let mut candidates = spaced(voxels.skin(), template.candidate_spacing() as u16);
+        if let Some(near) = &near {
+            candidates.retain(|&c| near.near(voxels.position(c)));
+        }
+        found.skin_voxels += voxels.skin().len();
+        if candidates.is_empty() {
+            // No copy can be anchored on this part (a slab's plain faces).
+            found.timings.match_ += now_ms() - t1;
+            continue;
+        }
         let mut estimate = held.clone();
         estimate.add("candidate state", candidate_bytes(candidates.len()));
+        if let Some(near) = &near {
+            estimate.add("cells near vertices", near.bytes());
+        }
         estimate.check(scene.memory_budget(), || {
             format!(
                 "a part has {} candidate points at resolution {}: lower the resolution (they fall with its square), raise the candidate spacing, or raise the memory budget",
@@ -229,7 +268,6 @@ pub(super) fn search_voxels(
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
         found.instances.extend(instances);
         found.add_stats(stats);
-        found.skin_voxels += voxels.skin().len();
         found.timings.match_ += t2 - t1;
         found.timings.group += now_ms() - t2;
     }

@@ -1,0 +1,142 @@
+//! A copy brings its own vertices.
+//!
+//! A rigid copy of the template has a vertex wherever the template has one,
+//! moved with it: so the scene point where a copy's anchor lies has a
+//! vertex of its part as close as the template's anchor has one of the
+//! template. A remeshed or simplified copy moves its vertices by about an
+//! edge, which the reach allows for. Where a part has no vertex for a long
+//! way (the inside of a slab's face, a wall, a duct: most of a building
+//! model's surface, and the long faces of machined parts), no copy can be
+//! anchored, and its skin voxels there are not candidates. Without this, a
+//! 100 m floor slab under 0.3 m fixtures held 42 million candidates and the
+//! search was refused for memory.
+
+use crate::exec::Backend;
+use crate::math::{Aabb, Vec3};
+use crate::mesh::TriMesh;
+use crate::voxel::{Grid, GridSpec, dilate};
+
+/// Cells of the vertex grid at most, whatever the part's size: a larger
+/// part gets larger cells, which keep more candidates, never fewer.
+const MAX_CELLS: f64 = (1u64 << 27) as f64;
+
+/// Which points of a part lie within reach of one of its vertices.
+pub(super) struct NearVertices {
+    cells: Grid,
+}
+
+impl NearVertices {
+    /// Cells of side `reach` over `bounds` (a part's box), each set where a
+    /// corner of `triangles` of `mesh` lies in it or in a neighbour: every
+    /// point within `reach` of a vertex is in a set cell.
+    pub(super) fn new(
+        mesh: &TriMesh,
+        triangles: &[u32],
+        bounds: Aabb,
+        reach: f64,
+        backend: Backend,
+    ) -> Option<NearVertices> {
+        let e = bounds.extent();
+        // Padding aside, the cells over the box: a side of `reach`, or
+        // larger where the box would need more than MAX_CELLS of them, or
+        // more than a grid's side holds.
+        let volume = (e.x + reach) * (e.y + reach) * (e.z + reach);
+        let longest = e.x.max(e.y).max(e.z);
+        let cell = reach
+            .max((volume / MAX_CELLS).cbrt())
+            .max(longest / 60_000.0);
+        if !(cell.is_finite() && cell > 0.0) {
+            return None;
+        }
+        let spec = GridSpec::around(bounds, cell).ok()?;
+        let mut marked = Grid::new(spec);
+        for &t in triangles {
+            for p in mesh.corners(t as usize) {
+                let [x, y, z] = spec.voxel_of(p);
+                if x >= 0 && y >= 0 && z >= 0 {
+                    let [x, y, z] = [x, y, z].map(|c| c as usize);
+                    if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
+                        marked.set(x, y, z);
+                    }
+                }
+            }
+        }
+        Some(NearVertices {
+            cells: dilate(&marked, backend),
+        })
+    }
+
+    /// Bytes its cells take.
+    pub(super) fn bytes(&self) -> u64 {
+        8 * self.cells.words().len() as u64
+    }
+
+    /// Whether `p` may lie within reach of a vertex (a set cell); points
+    /// outside the part's box are never near.
+    pub(super) fn near(&self, p: Vec3) -> bool {
+        let [x, y, z] = self.cells.spec().voxel_of(p);
+        self.cells.get(x, y, z)
+    }
+}
+
+/// How far from a vertex a copy's anchor can lie: twice the template's own
+/// distance (`template_gap`, the largest over its anchors), plus the way
+/// from a copy's anchor to the candidate standing for it (a cube of
+/// `spacing` voxels of `voxel`, and a voxel of rounding), plus half the
+/// first radius `r1` for vertices that remeshing moved.
+pub(super) fn reach(template_gap: f64, spacing: u32, voxel: f64, r1: f64) -> f64 {
+    2.0 * template_gap + (3f64.sqrt() * f64::from(spacing) + 2.0) * voxel + 0.5 * r1
+}
+
+/// The largest, over `anchors`, of the distance to the nearest of `points`.
+pub(super) fn template_gap(anchors: &[Vec3], points: impl Iterator<Item = Vec3>) -> f64 {
+    let mut nearest = vec![f64::INFINITY; anchors.len()];
+    for p in points {
+        for (n, a) in nearest.iter_mut().zip(anchors) {
+            *n = n.min(p.distance(*a));
+        }
+    }
+    nearest.into_iter().fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::cuboid;
+
+    #[test]
+    fn the_inside_of_a_large_face_is_far_from_every_vertex() {
+        // A slab of two triangles a face: vertices only at its corners.
+        let slab = cuboid(Vec3::new(-10.0, -10.0, -0.2), Vec3::ZERO);
+        let triangles: Vec<u32> = (0..slab.triangles().len() as u32).collect();
+        let near = NearVertices::new(&slab, &triangles, slab.bounds(), 0.5, Backend::Serial)
+            .expect("cells");
+        // Within reach of a corner: near. The middle of the top face, and
+        // anywhere beyond a few cells of every corner: not.
+        assert!(near.near(Vec3::new(-9.7, -9.8, 0.0)));
+        assert!(near.near(Vec3::new(-0.3, -0.1, -0.1)));
+        assert!(!near.near(Vec3::new(-5.0, -5.0, 0.0)));
+        assert!(!near.near(Vec3::new(-2.0, -8.0, 0.0)));
+        // Every point within reach of a vertex is near, whatever the cell
+        // it falls in.
+        for corner in slab.positions() {
+            let c = Vec3::new(corner[0] as f64, corner[1] as f64, corner[2] as f64);
+            for d in [
+                Vec3::new(0.49, 0.0, 0.0),
+                Vec3::new(0.0, -0.49, 0.0),
+                Vec3::new(0.28, 0.28, 0.28),
+                Vec3::new(-0.2, 0.3, -0.3),
+            ] {
+                let p = c + d;
+                assert!(near.near(p), "{p:?} near {c:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_gap_is_the_worst_anchors_nearest_vertex() {
+        let anchors = [Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)];
+        let points = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(10.0, 0.0, 3.0)];
+        assert_eq!(template_gap(&anchors, points.into_iter()), 3.0);
+    }
+}

@@ -1,0 +1,76 @@
+//! Small parts on a very large one, as in a building model: fixtures of
+//! 0.6 m on a 100 m floor slab, under long ducts. The slab's plain faces
+//! hold no vertex, so no copy can be anchored there; searched whole, they
+//! held 42 million candidates and the search was refused for memory.
+
+mod common;
+
+use fast_reject::math::Vec3;
+use fast_reject::mesh::shapes::cuboid;
+use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load, search};
+use glam::DQuat;
+
+/// The rocker arm scaled to a bounding radius of about `radius`, centred.
+fn fixture(radius: f64) -> TriMesh {
+    let mesh = load(&common::model_bytes("rocker-arm.obj"), None).unwrap();
+    let b = mesh.bounds();
+    let (centre, half) = (b.center(), b.extent().length() / 2.0);
+    mesh.map_positions(|p| (p - centre) * (radius / half))
+        .unwrap()
+}
+
+#[test]
+fn fixtures_on_a_floor_slab_a_hundred_metres_wide_are_all_found() {
+    let template = fixture(0.3);
+    let mut scene = cuboid(Vec3::new(-50.0, -50.0, -0.3), Vec3::new(50.0, 50.0, 0.0));
+    for i in 0..4 {
+        let y = -30.0 + 20.0 * i as f64;
+        scene.append(&cuboid(
+            Vec3::new(-45.0, y - 0.2, 2.5),
+            Vec3::new(45.0, y + 0.2, 2.9),
+        ));
+    }
+    let places: Vec<(DQuat, Vec3)> = (0..6)
+        .map(|i| {
+            let a = 1.3 * i as f64;
+            let turn = DQuat::from_axis_angle(Vec3::new(a.cos(), a.sin(), 1.0).normalize(), a);
+            let at = Vec3::new(-40.0 + 15.0 * i as f64, 35.0 - 11.0 * i as f64, 0.0);
+            (turn, at)
+        })
+        .collect();
+    for &(turn, at) in &places {
+        let turned = template.map_positions(|p| turn * p).unwrap();
+        // Standing on the slab.
+        let lift = Vec3::new(0.0, 0.0, 0.001 - turned.bounds().min.z);
+        scene.append(&turned.map_positions(|p| p + at + lift).unwrap());
+    }
+    let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
+    let report = search(
+        &scene,
+        &TemplateSource::Model(template.clone()),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let c = Vec3::from_array(report.template.center);
+    let r = report.template.radius;
+    let truth: Vec<Vec3> = places
+        .iter()
+        .map(|&(turn, at)| {
+            let lift = 0.001 - template.map_positions(|p| turn * p).unwrap().bounds().min.z;
+            turn * c + at + Vec3::new(0.0, 0.0, lift)
+        })
+        .collect();
+    let found: Vec<Vec3> = report
+        .instances
+        .iter()
+        .map(|i| Vec3::from_array(i.position))
+        .collect();
+    for (i, t) in truth.iter().enumerate() {
+        assert!(
+            found.iter().any(|p| p.distance(*t) < 0.1 * r),
+            "fixture {i} missed: found {found:?}"
+        );
+    }
+    assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+}
