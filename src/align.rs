@@ -87,7 +87,7 @@ impl Rigid {
     }
 
     /// First `other`, then this transform.
-    fn after(&self, other: &Rigid) -> Rigid {
+    pub fn after(&self, other: &Rigid) -> Rigid {
         Rigid {
             rotation: self.rotation * other.rotation,
             translation: self.rotation * other.translation + self.translation,

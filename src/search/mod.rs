@@ -3,6 +3,7 @@
 //! and harmonics on the scene's skin voxels) and the curvature one
 //! (`curvature.rs`: on the welded mesh's vertices).
 
+mod congruent_parts;
 mod curvature;
 mod near_vertices;
 mod options;

@@ -3,6 +3,7 @@
 //! volume and harmonics stages, then verification by placement and
 //! grouping.
 
+use super::congruent_parts::congruent_parts;
 use super::near_vertices::{self, NearVertices, template_gap};
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
@@ -119,7 +120,19 @@ pub(super) fn search_voxels(
     let vertex_reach = near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]);
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
-    for (i, part) in parts {
+    // What a part's copies take from it, moved.
+    let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
+    let copies = congruent_parts(mesh, &lists);
+    let mut found_on: Vec<Vec<Instance>> = vec![Vec::new(); parts.len()];
+    for (k, &(i, part)) in parts.iter().enumerate() {
+        if let Some((original, motion)) = &copies[k] {
+            let moved: Vec<Instance> = found_on[*original]
+                .iter()
+                .map(|instance| moved_instance(instance, motion))
+                .collect();
+            found.instances.extend(moved);
+            continue;
+        }
         let fresh;
         let voxels = if template.scene_part() == Some(i) {
             tvoxels
@@ -266,6 +279,7 @@ pub(super) fn search_voxels(
         );
         // The meshes' verdict at the exact pose.
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
+        found_on[k] = instances.clone();
         found.instances.extend(instances);
         found.add_stats(stats);
         found.timings.match_ += t2 - t1;
@@ -384,6 +398,17 @@ fn align_instances(
             instance.position = pose.apply(template.center()).to_array();
             instance.score = Some(agreement);
         }
+    }
+}
+
+/// `instance`, found on a part, on that part's copy `motion` away.
+fn moved_instance(instance: &Instance, motion: &Rigid) -> Instance {
+    Instance {
+        position: motion.apply(Vec3::from_array(instance.position)).to_array(),
+        pose: instance
+            .pose
+            .map(|pose| motion.after(&Rigid::from_rows(&pose)).to_rows()),
+        ..instance.clone()
     }
 }
 

@@ -1,0 +1,219 @@
+//! Parts that are rigid copies of each other are searched once.
+//!
+//! A CAD assembly or a building model repeats its parts: two dozen rollers,
+//! hundreds of one fitting, baked into one mesh with the same triangles in
+//! the same order, each moved. The voxel search describes a point by its
+//! own part alone, so what it finds on a part is a function of that part's
+//! shape: found on one copy, it holds on every other, moved with it. So a
+//! part whose triangles, vertex for vertex, are another's moved rigidly
+//! (within float rounding) takes that part's instances, moved. A part of
+//! the same shape meshed differently is searched on its own, as before.
+
+use std::collections::HashMap;
+
+use crate::align::Rigid;
+use crate::math::Vec3;
+use crate::mesh::TriMesh;
+use glam::DMat3;
+
+/// Vertices may differ by this share of the part's radius, plus the
+/// rounding of their f32 coordinates: far below a voxel.
+const TOLERANCE: f64 = 1e-4;
+
+/// A part's vertices in the order its triangles first use them, and its
+/// triangles in those local indices.
+struct Local {
+    vertices: Vec<Vec3>,
+    centroid: Vec3,
+    /// Root mean square distance of the vertices from the centroid: equal
+    /// for rigid copies.
+    spread: f64,
+    /// The largest coordinate's magnitude: what f32 rounding scales with.
+    magnitude: f64,
+}
+
+impl Local {
+    fn new(mesh: &TriMesh, triangles: &[u32], seen: &mut HashMap<u32, u32>) -> (Local, Vec<u32>) {
+        seen.clear();
+        let mut vertices = Vec::new();
+        let mut pattern = Vec::with_capacity(3 * triangles.len());
+        for &t in triangles {
+            for v in mesh.triangles()[t as usize] {
+                let next = vertices.len() as u32;
+                let local = *seen.entry(v).or_insert_with(|| {
+                    vertices.push(mesh.vertex(v));
+                    next
+                });
+                pattern.push(local);
+            }
+        }
+        let centroid = vertices.iter().copied().sum::<Vec3>() / vertices.len().max(1) as f64;
+        let spread = (vertices
+            .iter()
+            .map(|v| v.distance_squared(centroid))
+            .sum::<f64>()
+            / vertices.len().max(1) as f64)
+            .sqrt();
+        let magnitude = vertices
+            .iter()
+            .map(|v| v.abs().max_element())
+            .fold(0.0, f64::max);
+        (
+            Local {
+                vertices,
+                centroid,
+                spread,
+                magnitude,
+            },
+            pattern,
+        )
+    }
+
+    /// Indices of two vertices that, with the centroid, make a frame:
+    /// the farthest from the centroid, then the farthest from its line.
+    fn frame_vertices(&self) -> Option<(usize, usize)> {
+        let c = self.centroid;
+        let (a, da) = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (i, v.distance(c)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))?;
+        let axis = (self.vertices[a] - c) / da;
+        let (b, db) = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (i, (*v - c).cross(axis).length()))
+            .max_by(|x, y| x.1.total_cmp(&y.1))?;
+        (da > 0.0 && db > 1e-6 * da).then_some((a, b))
+    }
+
+    /// The orthonormal frame of vertices `a` and `b` about the centroid.
+    fn frame(&self, (a, b): (usize, usize)) -> DMat3 {
+        let x = (self.vertices[a] - self.centroid).normalize();
+        let z = x.cross(self.vertices[b] - self.centroid).normalize();
+        DMat3::from_cols(x, z.cross(x), z)
+    }
+
+    /// The rigid motion taking `self` onto `other` vertex by vertex, if
+    /// every vertex lands within the tolerance.
+    fn motion_to(&self, other: &Local, pair: (usize, usize)) -> Option<Rigid> {
+        let rotation = other.frame(pair) * self.frame(pair).transpose();
+        let motion = Rigid {
+            rotation,
+            translation: other.centroid - rotation * self.centroid,
+        };
+        let tolerance = TOLERANCE * self.spread.max(other.spread)
+            + 4.0 * f64::from(f32::EPSILON) * self.magnitude.max(other.magnitude);
+        self.vertices
+            .iter()
+            .zip(&other.vertices)
+            .all(|(&p, &q)| motion.apply(p).distance(q) <= tolerance)
+            .then_some(motion)
+    }
+}
+
+/// A searched part that later ones may copy: its index, its vertices and
+/// the two that make its frame.
+struct Original {
+    part: usize,
+    local: Local,
+    pair: (usize, usize),
+}
+
+/// For each of `parts` (triangle lists of `mesh`), `None` where it is
+/// searched, or the earlier part it copies and the motion from that part
+/// to it. Only parts that are searched are copied from.
+pub(super) fn congruent_parts(mesh: &TriMesh, parts: &[&[u32]]) -> Vec<Option<(usize, Rigid)>> {
+    let mut seen = HashMap::new();
+    // Searched parts by their triangles in local indices.
+    let mut originals: HashMap<Vec<u32>, Vec<Original>> = HashMap::new();
+    parts
+        .iter()
+        .enumerate()
+        .map(|(i, triangles)| {
+            let (local, pattern) = Local::new(mesh, triangles, &mut seen);
+            let same_pattern = originals.entry(pattern).or_default();
+            let copied = same_pattern.iter().find_map(
+                |Original {
+                     part: j,
+                     local: original,
+                     pair,
+                 }| {
+                    let close = (original.spread - local.spread).abs()
+                        <= TOLERANCE * original.spread.max(local.spread)
+                            + 4.0
+                                * f64::from(f32::EPSILON)
+                                * original.magnitude.max(local.magnitude);
+                    close
+                        .then(|| original.motion_to(&local, *pair))
+                        .flatten()
+                        .map(|m| (*j, m))
+                },
+            );
+            if copied.is_none()
+                && let Some(pair) = local.frame_vertices()
+            {
+                same_pattern.push(Original {
+                    part: i,
+                    local,
+                    pair,
+                });
+            }
+            copied
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::{cuboid, torus};
+    use glam::DQuat;
+
+    fn placed(mesh: &TriMesh, turn: DQuat, shift: Vec3) -> TriMesh {
+        mesh.map_positions(|p| turn * p + shift).unwrap()
+    }
+
+    #[test]
+    fn moved_copies_are_found_and_other_shapes_are_not() {
+        let ring = torus(Vec3::ZERO, 1.0, 0.3, 24, 12);
+        let turn = DQuat::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 2.1);
+        let mut scene = ring.clone();
+        scene.append(&placed(&ring, turn, Vec3::new(5.0, -3.0, 2.0)));
+        // The same triangles, stretched: not a rigid copy.
+        scene.append(
+            &ring
+                .map_positions(|p| p * Vec3::new(1.0, 1.0, 1.2))
+                .unwrap(),
+        );
+        // A mirror image: not a proper motion.
+        scene.append(
+            &ring
+                .map_positions(|p| p * Vec3::new(-1.0, 1.0, 1.0) + Vec3::X * 9.0)
+                .unwrap(),
+        );
+        scene.append(&cuboid(Vec3::splat(10.0), Vec3::splat(11.0)));
+        scene.append(&placed(&ring, DQuat::IDENTITY, Vec3::new(0.0, 20.0, 0.0)));
+        let n = ring.triangles().len() as u32;
+        let parts: Vec<Vec<u32>> = (0..4)
+            .map(|k| (k * n..(k + 1) * n).collect())
+            .chain([
+                (4 * n..4 * n + 12).collect(),
+                (4 * n + 12..5 * n + 12).collect(),
+            ])
+            .collect();
+        let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
+        let copies = congruent_parts(&scene, &lists);
+        let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|(j, _)| j)).collect();
+        assert_eq!(originals, [None, Some(0), None, None, None, Some(0)]);
+        // The motion takes the first ring onto the second.
+        let (_, motion) = copies[1].unwrap();
+        for p in ring.positions() {
+            let p = Vec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            let q = turn * p + Vec3::new(5.0, -3.0, 2.0);
+            assert!(motion.apply(p).distance(q) < 1e-5, "{p:?}");
+        }
+    }
+}
