@@ -10,6 +10,7 @@
 //! the same shape meshed differently is searched on its own, as before.
 
 use std::collections::HashMap;
+use std::hash::{DefaultHasher, Hash, Hasher};
 
 use crate::align::Rigid;
 use crate::math::Vec3;
@@ -114,11 +115,14 @@ impl Local {
     }
 }
 
-/// A searched part that later ones may copy: its index, its vertices and
-/// the two that make its frame.
+/// A searched part that later ones may copy, in brief: its vertices are
+/// read again only for a part that may be its copy, so that a scene of
+/// distinct parts does not hold a second copy of its mesh.
 struct Original {
     part: usize,
-    local: Local,
+    spread: f64,
+    magnitude: f64,
+    /// The two vertices that make its frame.
     pair: (usize, usize),
 }
 
@@ -126,38 +130,40 @@ struct Original {
 /// searched, or the earlier part it copies and the motion from that part
 /// to it. Only parts that are searched are copied from.
 pub(super) fn congruent_parts(mesh: &TriMesh, parts: &[&[u32]]) -> Vec<Option<(usize, Rigid)>> {
-    let mut seen = HashMap::new();
-    // Searched parts by their triangles in local indices.
-    let mut originals: HashMap<Vec<u32>, Vec<Original>> = HashMap::new();
+    let (mut seen, mut seen_there) = (HashMap::new(), HashMap::new());
+    // Searched parts by their triangles in local indices (a hash of them:
+    // equal lists are checked when the hashes meet).
+    let mut originals: HashMap<(usize, usize, u64), Vec<Original>> = HashMap::new();
     parts
         .iter()
         .enumerate()
         .map(|(i, triangles)| {
             let (local, pattern) = Local::new(mesh, triangles, &mut seen);
-            let same_pattern = originals.entry(pattern).or_default();
-            let copied = same_pattern.iter().find_map(
-                |Original {
-                     part: j,
-                     local: original,
-                     pair,
-                 }| {
-                    let close = (original.spread - local.spread).abs()
-                        <= TOLERANCE * original.spread.max(local.spread)
-                            + 4.0
-                                * f64::from(f32::EPSILON)
-                                * original.magnitude.max(local.magnitude);
-                    close
-                        .then(|| original.motion_to(&local, *pair))
-                        .flatten()
-                        .map(|m| (*j, m))
-                },
-            );
+            let mut hasher = DefaultHasher::new();
+            pattern.hash(&mut hasher);
+            let key = (pattern.len(), local.vertices.len(), hasher.finish());
+            let same_pattern = originals.entry(key).or_default();
+            let copied = same_pattern.iter().find_map(|original| {
+                let close = (original.spread - local.spread).abs()
+                    <= TOLERANCE * original.spread.max(local.spread)
+                        + 4.0 * f64::from(f32::EPSILON) * original.magnitude.max(local.magnitude);
+                if !close {
+                    return None;
+                }
+                let (there, their_pattern) =
+                    Local::new(mesh, parts[original.part], &mut seen_there);
+                (their_pattern == pattern)
+                    .then(|| there.motion_to(&local, original.pair))
+                    .flatten()
+                    .map(|m| (original.part, m))
+            });
             if copied.is_none()
                 && let Some(pair) = local.frame_vertices()
             {
                 same_pattern.push(Original {
                     part: i,
-                    local,
+                    spread: local.spread,
+                    magnitude: local.magnitude,
                     pair,
                 });
             }
