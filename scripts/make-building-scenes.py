@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""Scenes of the kind a building model is, with truth.json in the format of
+../shared/scenes (scored by ../shared/bench/evaluate.py):
+
+  slab      a square floor slab 0.3 m thick, six long ducts above it, and
+            20 turned copies of a model (0.3 m bounding radius) standing
+            on the slab: small parts on very large plain ones.
+  families  PARTS parts drawn from FAMILIES families of boxes, cylinders
+            and capsules (0.1-3 m), each placed and turned at random over
+            a 60 m floor, and 20 turned copies of the model: a building's
+            services, where every fitting repeats. --families 0 draws
+            every part anew.
+
+  python3 scripts/make-building-scenes.py slab OUT [--size 100] [--seed 1]
+  python3 scripts/make-building-scenes.py families OUT [--parts 3000]
+      [--families 20] [--seed 4]
+
+Needs numpy and trimesh; --model names a file of ../shared/models
+(default rocker-arm.obj).
+"""
+import argparse
+import json
+import os
+
+import numpy as np
+import trimesh
+
+here = os.path.dirname(os.path.abspath(__file__))
+shared = os.environ.get("FAST_REJECT_SHARED", os.path.join(here, "..", "..", "shared"))
+
+
+def template(model):
+    t = trimesh.load(os.path.join(shared, "models", model), force="mesh")
+    sphere = t.bounding_sphere.primitive
+    t.apply_translation(-sphere.center)
+    t.apply_scale(0.3 / sphere.radius)
+    return t
+
+
+def slab(args, rng, t):
+    size = args.size
+    floor = trimesh.creation.box(extents=[size, size, 0.3])
+    floor.apply_translation([0, 0, -0.15])
+    parts = [floor]
+    for _ in range(6):
+        duct = trimesh.creation.box(extents=[0.9 * size, 0.4, 0.4])
+        duct.apply_translation([0, rng.uniform(-size / 2, size / 2), 2.5])
+        parts.append(duct)
+    placed = []
+    for _ in range(20):
+        m = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        turned = t.copy()
+        turned.apply_transform(m)
+        x, y = rng.uniform(-size / 2 + 1, size / 2 - 1, 2)
+        m[:3, 3] = [x, y, 0.001 - turned.bounds[0][2]]
+        placed.append(m)
+    return parts, placed
+
+
+def families(args, rng, t):
+    def shape():
+        kind = rng.integers(3)
+        if kind == 0:
+            return trimesh.creation.box(extents=rng.uniform(0.1, 0.6, 3))
+        if kind == 1:
+            return trimesh.creation.cylinder(
+                radius=rng.uniform(0.03, 0.2), height=rng.uniform(0.2, 3.0), sections=24)
+        return trimesh.creation.capsule(
+            radius=rng.uniform(0.05, 0.2), height=rng.uniform(0.1, 0.5), count=[12, 12])
+
+    kinds = [shape() for _ in range(args.families)]
+    spread = np.array([60.0, 60.0, 12.0])
+    parts = []
+    for _ in range(args.parts):
+        m = (kinds[rng.integers(len(kinds))] if kinds else shape()).copy()
+        m.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
+        m.apply_translation(rng.uniform(-0.5, 0.5, 3) * spread)
+        parts.append(m)
+    placed = []
+    for _ in range(20):
+        m = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        m[:3, 3] = rng.uniform(-0.5, 0.5, 3) * spread
+        placed.append(m)
+    return parts, placed
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("recipe", choices=["slab", "families"])
+    p.add_argument("out")
+    p.add_argument("--size", type=float, default=100.0)
+    p.add_argument("--parts", type=int, default=3000)
+    p.add_argument("--families", type=int, default=20)
+    p.add_argument("--model", default="rocker-arm.obj")
+    p.add_argument("--seed", type=int, default=1)
+    args = p.parse_args()
+    rng = np.random.default_rng(args.seed)
+    t = template(args.model)
+    parts, placed = (slab if args.recipe == "slab" else families)(args, rng, t)
+    instances = []
+    for i, m in enumerate(placed):
+        copy = t.copy()
+        copy.apply_transform(m)
+        parts.append(copy)
+        instances.append({"node": f"{args.model}#{i}", "transform": m.tolist()})
+    os.makedirs(args.out, exist_ok=True)
+    scene = trimesh.util.concatenate(parts)
+    scene.export(os.path.join(args.out, "scene.glb"))
+    t.export(os.path.join(args.out, "template.glb"))
+    truth = {"template": "template.glb", "scene": "scene.glb", "instances": instances,
+             "template_radius": 0.3}
+    with open(os.path.join(args.out, "truth.json"), "w") as f:
+        json.dump(truth, f, indent=1)
+    print(f"{args.out}: {len(parts)} objects, {len(scene.faces)} triangles, {len(instances)} instances")
+
+
+if __name__ == "__main__":
+    main()
