@@ -12,7 +12,7 @@ use crate::exec::Backend;
 use crate::math::Aabb;
 use crate::math::Vec3;
 use crate::mesh::{TriMesh, connected_components, minimal_bounding_sphere};
-use crate::voxel::{Grid, GridSpec, PADDING, Solid, dilate, skin, voxelize};
+use crate::voxel::{Grid, GridSpec, PADDING, Solid, WindowedMesh, dilate, skin, voxelize};
 use std::sync::OnceLock;
 
 /// How to voxelize a scene.
@@ -104,6 +104,14 @@ pub struct Lattice {
     pub resolution: u32,
 }
 
+/// The finest lattice a template may ask for, in voxels along the scene's
+/// longest side: a 2 km site at a millimetre.
+pub const MAX_LATTICE_RESOLUTION: f64 = (1u32 << 21) as f64;
+
+/// A part's grid, or a window of it, may take this share of the memory
+/// budget.
+const WINDOW_SHARE: u64 = 8;
+
 /// A part's grid may always take this much for its padding.
 pub const PAD_FLOOR_BYTES: u64 = 4 << 20;
 
@@ -191,6 +199,22 @@ impl PartVoxels {
     pub(crate) fn build(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> PartVoxels {
         let start = now_ms();
         let grid = voxelize(mesh, spec, backend);
+        PartVoxels::from_solid(grid, start, backend)
+    }
+
+    /// Voxelizes the window `spec` of a part too large for one grid: equal
+    /// to the whole part's voxels off the window's outermost layer.
+    pub(crate) fn build_window(
+        mesh: &WindowedMesh,
+        spec: &GridSpec,
+        backend: Backend,
+    ) -> PartVoxels {
+        let start = now_ms();
+        let grid = mesh.voxelize(spec, backend);
+        PartVoxels::from_solid(grid, start, backend)
+    }
+
+    fn from_solid(grid: Grid, start: f64, backend: Backend) -> PartVoxels {
         let skin_grid = skin(&grid, backend);
         let near_surface = dilate(&skin_grid, backend);
         // Sized exactly: a messy part's skin can run to tens of millions of
@@ -327,34 +351,31 @@ impl Scene {
     }
 
     /// The lattice on which a template of bounding radius `radius` spans at
-    /// least `voxels` voxels: the scene's own, or finer, as long as the
-    /// largest part's grids take at most half the memory budget (a dense
-    /// grid per part: a tiny template on a large part would need more).
+    /// least `voxels` voxels: the scene's own, or finer. A part too large
+    /// for one grid on it is searched in windows (`search::windows`), so
+    /// the scene's extent does not coarsen it.
     pub fn lattice_for(&self, radius: f64, voxels: f64) -> Result<Lattice> {
-        let longest = self.mesh.bounds().extent().max_element();
+        let bounds = self.mesh.bounds();
+        let longest = bounds.extent().max_element();
         let needed = (longest * voxels / radius).ceil();
         if !(needed.is_finite() && needed > f64::from(self.resolution)) {
             return Ok(self.lattice());
         }
-        let largest = self.parts.iter().map(|p| p.bounds).max_by(|a, b| {
-            let volume = |b: &Aabb| b.extent().x * b.extent().y * b.extent().z;
-            volume(a).total_cmp(&volume(b))
-        });
-        let fits = |spec: &GridSpec| {
-            largest.is_none_or(|b| {
-                spec.crop(b, PADDING)
-                    .is_ok_and(|c| voxel_bytes(&c) <= self.memory_budget / 2)
-            })
-        };
-        let mut resolution = needed.min(16384.0) as u32;
-        while resolution > self.resolution {
-            let spec = GridSpec::for_scene(self.mesh.bounds(), resolution)?;
-            if fits(&spec) {
-                return Ok(Lattice { spec, resolution });
-            }
-            resolution = (resolution as f64 * 0.9) as u32;
-        }
-        Ok(self.lattice())
+        let resolution = needed.min(MAX_LATTICE_RESOLUTION) as u32;
+        // As `GridSpec::for_scene` places it, past its limit of a grid's
+        // side: only crops of it are ever allocated.
+        let voxel_size = longest / f64::from(resolution);
+        let pad = PADDING as f64 * voxel_size;
+        let e = bounds.extent();
+        let dims = [e.x, e.y, e.z].map(|e| (e / voxel_size).floor() as usize + 1 + 2 * PADDING);
+        Ok(Lattice {
+            spec: GridSpec {
+                origin: bounds.min - Vec3::splat(pad),
+                voxel_size,
+                dims,
+            },
+            resolution,
+        })
     }
 
     /// Voxelizes `part` on its own for a template reaching `reach` voxels
@@ -385,6 +406,45 @@ impl Scene {
             &spec,
             self.backend,
         ))
+    }
+
+    /// A window of a part too large for one grid may take this much:
+    /// smaller windows skip more of a part where no copy can lie.
+    pub fn window_bytes(&self) -> u64 {
+        self.memory_budget / WINDOW_SHARE
+    }
+
+    /// Whether `part`'s whole grid, padded by `reach` voxels, takes at most
+    /// half the memory budget; a larger part is searched in windows.
+    pub fn fits_one_grid(&self, part: &ScenePart, lattice: &Lattice, reach: f64) -> bool {
+        self.part_spec(part, lattice, reach)
+            .is_ok_and(|spec| voxel_bytes(&spec) <= self.memory_budget / 2)
+    }
+
+    /// Voxelizes the window of `part` around `focus`, padded by `reach`
+    /// voxels: what of a part too large for one grid a selection reads.
+    pub fn voxelize_around(
+        &self,
+        part: &ScenePart,
+        lattice: &Lattice,
+        focus: Aabb,
+        reach: f64,
+        held: &MemoryEstimate,
+    ) -> Result<PartVoxels> {
+        let pad = reach.ceil().clamp(0.0, f64::from(u16::MAX)) as usize + 2;
+        let spec = lattice.spec.crop(focus, pad)?;
+        let windowed = WindowedMesh::new(self.mesh.subset(&part.triangles), self.backend);
+        let mut estimate = held.clone();
+        estimate
+            .add("a large part's mesh for its windows", windowed.bytes())
+            .add(
+                "the selection's voxel grids and count pyramid",
+                voxel_bytes(&spec),
+            );
+        estimate.check(self.memory_budget, || {
+            "the selection's window does not fit: pick a smaller sphere, or raise the memory budget".into()
+        })?;
+        Ok(PartVoxels::build_window(&windowed, &spec, self.backend))
     }
 
     /// The grid of `part`, padded so that the template's spheres and balls

@@ -1,7 +1,9 @@
 //! Small parts on a very large one, as in a building model: fixtures of
 //! 0.6 m on a 100 m floor slab, under long ducts. The slab's plain faces
 //! hold no vertex, so no copy can be anchored there; searched whole, they
-//! held 42 million candidates and the search was refused for memory.
+//! held 42 million candidates and the search was refused for memory. The
+//! slab is too large for one grid at the template's voxels: it is searched
+//! in windows, of which only those by its corners are built.
 
 mod common;
 
@@ -54,6 +56,11 @@ fn fixtures_on_a_floor_slab_a_hundred_metres_wide_are_all_found() {
     .unwrap();
     let c = Vec3::from_array(report.template.center);
     let r = report.template.radius;
+    // The slab, searched in windows, does not coarsen the lattice: the
+    // template spans its 32 voxels across its bounding radius.
+    let grid = report.grid.clone().expect("a voxel search");
+    assert!(grid.windows > 0, "{grid:?}");
+    assert!(grid.voxel_size <= 0.3 / 32.0 * 1.001, "{grid:?}");
     let truth: Vec<Vec3> = places
         .iter()
         .map(|&(turn, at)| {

@@ -120,8 +120,8 @@ export interface MatchReport {
   template: { center: [number, number, number]; radius: number };
   instances: Instance[];
   stages: LayerStats[];
-  /** The voxel grid (null for curvature). */
-  grid: { resolution: number; voxel_size: number; skin_voxels: number } | null;
+  /** The voxel grid (null for curvature); `windows`: how many windows parts too large for one grid were searched in (0: none was). */
+  grid: { resolution: number; voxel_size: number; skin_voxels: number; windows: number } | null;
   /** The welded surface (curvature only, else null). */
   surface: { vertices: number; triangles: number } | null;
   timings_ms: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };

@@ -9,6 +9,7 @@ mod near_vertices;
 mod options;
 mod report;
 mod voxel;
+mod windows;
 
 pub use options::{DescriptorKind, MatchOptions};
 pub use report::{GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};

@@ -66,6 +66,22 @@ impl NearVertices {
         })
     }
 
+    /// Whether some point of `bounds` may lie within reach of a vertex.
+    pub(super) fn any_in(&self, bounds: &Aabb) -> bool {
+        let spec = self.cells.spec();
+        let (lo, hi) = (spec.voxel_of(bounds.min), spec.voxel_of(bounds.max));
+        let clamp = |c: i64, a: usize| c.clamp(0, spec.dims[a] as i64 - 1);
+        if (0..3).any(|a| hi[a] < 0 || lo[a] >= spec.dims[a] as i64) {
+            return false;
+        }
+        let (lo, hi) = (
+            [0, 1, 2].map(|a| clamp(lo[a], a)),
+            [0, 1, 2].map(|a| clamp(hi[a], a)),
+        );
+        (lo[2]..=hi[2])
+            .any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| self.cells.get(x, y, z))))
+    }
+
     /// Bytes its cells take.
     pub(super) fn bytes(&self) -> u64 {
         8 * self.cells.words().len() as u64

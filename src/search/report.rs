@@ -44,6 +44,9 @@ pub struct GridInfo {
     pub voxel_size: f64,
     /// Candidate points.
     pub skin_voxels: usize,
+    /// Windows that parts too large for one grid were searched in (those
+    /// where a copy could lie); 0 when every part fit one grid.
+    pub windows: usize,
 }
 
 /// Milliseconds per stage. The total is computed ([`Timings::total`]) and

@@ -7,11 +7,13 @@ use super::congruent_parts::congruent_parts;
 use super::near_vertices::{self, NearVertices, template_gap};
 use super::options::{DescriptorKind, MatchOptions};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
+use super::windows::{Window, part_windows};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
 use crate::cascade::{LayerStats, Observer, Stage, Survivor, all_anchors, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
+use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
@@ -19,7 +21,7 @@ use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
-use crate::voxel::spaced;
+use crate::voxel::{Ball, WindowedMesh, spaced};
 
 /// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
 /// part by part: each connected part of the scene large enough to hold a
@@ -89,9 +91,6 @@ pub(super) fn search_voxels(
         .filter(|(_, part)| part.radius() >= template.min_part_radius())
         .collect();
     check_part_volume(scene, &lattice, &parts, reach)?;
-    // A part is one component: what the template does not explain of it
-    // is the copy's own (see `Verifier::check`).
-    let two_sided = template.parts() == Parts::Components;
     let samples = template_samples(source, scene, &template);
     // A copy's anchor lies as near a vertex of its part as the template's
     // anchors lie near one of the template's.
@@ -117,7 +116,24 @@ pub(super) fn search_voxels(
             )
         }
     };
-    let vertex_reach = near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]);
+    let searcher = PartSearch {
+        scene,
+        template: &template,
+        options,
+        balls,
+        template_volume,
+        template_harmonics,
+        transform,
+        verifiers,
+        samples,
+        max_hidden,
+        // A part is one component: what the template does not explain of
+        // it is the copy's own (see `Verifier::check`).
+        two_sided: template.parts() == Parts::Components,
+        vertex_reach: near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]),
+        held,
+        lattice: &lattice,
+    };
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
     // What a part's copies take from it, moved.
@@ -133,55 +149,191 @@ pub(super) fn search_voxels(
             found.instances.extend(moved);
             continue;
         }
-        let fresh;
-        let voxels = if template.scene_part() == Some(i) {
-            tvoxels
-        } else {
-            fresh = scene.voxelize_part(part, &lattice, reach, &held)?;
-            found.timings.voxelize += fresh.voxelize_ms();
-            &fresh
+        let instances = searcher.part(i, part, &mut found, observer)?;
+        found_on[k] = instances.clone();
+        found.instances.extend(instances);
+    }
+    // Best first over all parts, as within one.
+    found.instances.sort_by(|a, b| {
+        b.score
+            .unwrap_or(0.0)
+            .total_cmp(&a.score.unwrap_or(0.0))
+            .then(a.distance.total_cmp(&b.distance))
+    });
+    Ok(MatchReport {
+        template: TemplateInfo::of(template.center(), template.radius()),
+        instances: found.instances,
+        stages: found.stages,
+        grid: Some(GridInfo {
+            resolution: lattice.resolution,
+            voxel_size: voxel,
+            skin_voxels: found.skin_voxels,
+            windows: found.windows,
+        }),
+        surface: None,
+        timings: Timings {
+            template: template_ms,
+            ..found.timings
+        },
+    })
+}
+
+/// What searching one part needs: the template's side, prepared once.
+struct PartSearch<'a> {
+    scene: &'a Scene,
+    template: &'a VoxelTemplate,
+    options: &'a MatchOptions,
+    lattice: &'a Lattice,
+    /// The volume balls' tables, bound to each grid's layout.
+    balls: Vec<Ball>,
+    /// Per anchor: the template's volume and harmonics signatures.
+    template_volume: Vec<Vec<f64>>,
+    template_harmonics: Option<Vec<Vec<HarmonicsSignature>>>,
+    transform: SphericalTransform,
+    /// Per anchor: the verifier placed by it.
+    verifiers: Vec<Verifier>,
+    samples: SurfaceSamples,
+    max_hidden: f64,
+    two_sided: bool,
+    /// How far from a vertex of its part a copy's anchor can lie.
+    vertex_reach: f64,
+    /// What the search holds besides a part's grids.
+    held: MemoryEstimate,
+}
+
+impl PartSearch<'_> {
+    /// The instances on scene part `index`: on its own grid, or window by
+    /// window when it is too large for one.
+    fn part(
+        &self,
+        index: usize,
+        part: &ScenePart,
+        found: &mut Found,
+        observer: &mut dyn Observer,
+    ) -> Result<Vec<Instance>> {
+        let (scene, template) = (self.scene, self.template);
+        let backend = self.options.backend;
+        let voxel = self.lattice.spec.voxel_size;
+        let reach = template.radius() / voxel;
+        let mesh = scene.mesh();
+        let near = NearVertices::new(
+            mesh,
+            part.triangles(),
+            part.bounds(),
+            self.vertex_reach,
+            backend,
+        );
+        let Some(windows) = part_windows(scene, part, self.lattice, reach) else {
+            let fresh;
+            let voxels = match template.voxels_of_part(index) {
+                Some(voxels) => voxels,
+                None => {
+                    fresh = scene.voxelize_part(part, self.lattice, reach, &self.held)?;
+                    found.timings.voxelize += fresh.voxelize_ms();
+                    &fresh
+                }
+            };
+            return self.grid(part, voxels, None, near.as_ref(), found, observer);
         };
+        let windowed = WindowedMesh::new(mesh.subset(part.triangles()), backend);
+        let mut held = self.held.clone();
+        held.add("a large part's mesh for its windows", windowed.bytes());
+        let mut instances: Vec<Instance> = Vec::new();
+        for window in &windows {
+            let core = window.core_bounds();
+            // No copy can be anchored here, or nothing is here at all.
+            if near.as_ref().is_some_and(|n| !n.any_in(&core)) || !windowed.any_triangle_in(&core) {
+                continue;
+            }
+            let mut estimate = held.clone();
+            estimate.add(
+                "a window's voxel grids and count pyramid",
+                voxel_bytes(&window.spec),
+            );
+            estimate.check(scene.memory_budget(), || {
+                "a large part's window does not fit beside the search: raise the memory budget"
+                    .into()
+            })?;
+            let voxels = PartVoxels::build_window(&windowed, &window.spec, backend);
+            found.windows += 1;
+            found.timings.voxelize += voxels.voxelize_ms();
+            instances.extend(self.grid(
+                part,
+                &voxels,
+                Some(window),
+                near.as_ref(),
+                found,
+                observer,
+            )?);
+        }
+        // A copy whose points fall in two cores is found from both.
+        Ok(merge_duplicates(
+            instances,
+            self.options.group_radius * template.radius(),
+        ))
+    }
+
+    /// The instances on `voxels`, one grid of `part` (its whole, or a
+    /// window whose core holds the candidates).
+    fn grid(
+        &self,
+        part: &ScenePart,
+        voxels: &PartVoxels,
+        window: Option<&Window>,
+        near: Option<&NearVertices>,
+        found: &mut Found,
+        observer: &mut dyn Observer,
+    ) -> Result<Vec<Instance>> {
+        let (template, options) = (self.template, self.options);
+        let backend = options.backend;
+        let radii = template.radii();
+        let voxel = voxels.grid().spec().voxel_size;
         let t1 = now_ms();
-        let near = NearVertices::new(mesh, part.triangles(), part.bounds(), vertex_reach, backend);
         let mut candidates = spaced(voxels.skin(), template.candidate_spacing() as u16);
-        if let Some(near) = &near {
+        if let Some(window) = window {
+            candidates.retain(|&c| window.holds(voxels.skin()[c as usize]));
+        }
+        if let Some(near) = near {
             candidates.retain(|&c| near.near(voxels.position(c)));
         }
-        found.skin_voxels += voxels.skin().len();
+        found.skin_voxels += match window {
+            Some(window) => voxels.skin().iter().filter(|&&v| window.holds(v)).count(),
+            None => voxels.skin().len(),
+        };
         if candidates.is_empty() {
-            // No copy can be anchored on this part (a slab's plain faces).
+            // No copy can be anchored here (a slab's plain faces).
             found.timings.match_ += now_ms() - t1;
-            continue;
+            return Ok(Vec::new());
         }
-        let mut estimate = held.clone();
+        let mut estimate = self.held.clone();
         estimate.add("candidate state", candidate_bytes(candidates.len()));
-        if let Some(near) = &near {
+        if let Some(near) = near {
             estimate.add("cells near vertices", near.bytes());
         }
-        estimate.check(scene.memory_budget(), || {
+        estimate.check(self.scene.memory_budget(), || {
             format!(
                 "a part has {} candidate points at resolution {}: lower the resolution (they fall with its square), raise the candidate spacing, or raise the memory budget",
                 candidates.len(),
-                lattice.resolution
+                self.lattice.resolution
             )
         })?;
         let volume = VolumeDescriptor::with_balls(
             voxels.solid(),
             voxels.skin(),
             radii,
-            balls
+            self.balls
                 .iter()
                 .map(|b| b.clone().bind(voxels.solid(), backend))
                 .collect(),
-            template_volume.clone(),
+            self.template_volume.clone(),
             options.volume_threshold,
         )
         .with_clutter(options.clutter);
-        let harmonics = template_harmonics.as_ref().map(|signatures| {
+        let harmonics = self.template_harmonics.as_ref().map(|signatures| {
             HarmonicsDescriptor::new(
                 voxels.solid(),
                 voxels.skin(),
-                &transform,
+                &self.transform,
                 radii,
                 signatures.clone(),
                 options.harmonics_threshold,
@@ -203,14 +355,14 @@ pub(super) fn search_voxels(
         let (survivors, stats) = run_cascade(
             &stages,
             candidates,
-            all_anchors(anchors.len()),
+            all_anchors(self.verifiers.len()),
             backend,
             observer,
         )?;
         let t2 = now_ms();
         let position = |p| voxels.position(p);
         let mut verified: Vec<Verified> = Vec::new();
-        for (a, verifier) in verifiers.iter().enumerate() {
+        for (a, verifier) in self.verifiers.iter().enumerate() {
             let of_anchor: Vec<Survivor> = survivors
                 .iter()
                 .filter(|s| s.anchors & (1 << a) != 0)
@@ -240,7 +392,7 @@ pub(super) fn search_voxels(
                     voxels.skin(),
                     v,
                     options.verify_threshold,
-                    two_sided,
+                    self.two_sided,
                 );
                 let position = voxels.position(bests[b].point) + placement.offset * voxel;
                 Verified {
@@ -268,45 +420,45 @@ pub(super) fn search_voxels(
         );
         align_instances(
             &mut instances,
-            scene,
+            self.scene,
             part,
             voxels,
-            &samples,
-            &template,
-            max_hidden,
+            &self.samples,
+            template,
+            self.max_hidden,
             options.surface_tolerance,
             backend,
         );
         // The meshes' verdict at the exact pose.
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
-        found_on[k] = instances.clone();
-        found.instances.extend(instances);
         found.add_stats(stats);
         found.timings.match_ += t2 - t1;
         found.timings.group += now_ms() - t2;
+        Ok(instances)
     }
-    // Best first over all parts, as within one.
-    found.instances.sort_by(|a, b| {
+}
+
+/// One instance per copy: of finds within `radius` of a better one (by
+/// score, then distance), only the best is kept, with their support.
+fn merge_duplicates(mut instances: Vec<Instance>, radius: f64) -> Vec<Instance> {
+    instances.sort_by(|a, b| {
         b.score
             .unwrap_or(0.0)
             .total_cmp(&a.score.unwrap_or(0.0))
             .then(a.distance.total_cmp(&b.distance))
     });
-    Ok(MatchReport {
-        template: TemplateInfo::of(template.center(), template.radius()),
-        instances: found.instances,
-        stages: found.stages,
-        grid: Some(GridInfo {
-            resolution: lattice.resolution,
-            voxel_size: voxel,
-            skin_voxels: found.skin_voxels,
-        }),
-        surface: None,
-        timings: Timings {
-            template: template_ms,
-            ..found.timings
-        },
-    })
+    let mut kept: Vec<Instance> = Vec::new();
+    for instance in instances {
+        let p = Vec3::from_array(instance.position);
+        match kept
+            .iter_mut()
+            .find(|k| Vec3::from_array(k.position).distance(p) <= radius)
+        {
+            Some(k) => k.support += instance.support,
+            None => kept.push(instance),
+        }
+    }
+    kept
 }
 
 /// Surface samples the template's pose is refined with: a model's whole
@@ -418,6 +570,7 @@ struct Found {
     instances: Vec<Instance>,
     stages: Vec<LayerStats>,
     skin_voxels: usize,
+    windows: usize,
     timings: Timings,
 }
 
@@ -468,12 +621,17 @@ fn check_part_volume(
     parts: &[(usize, &ScenePart)],
     reach: f64,
 ) -> Result<()> {
+    // Counted in f64 from the boxes: a part past a grid's side is searched
+    // in windows, and still counts whole here.
+    let voxel = lattice.spec.voxel_size;
     let voxels: f64 = parts
         .iter()
-        .map(|(_, part)| {
-            scene
-                .part_spec(part, lattice, reach)
-                .map_or(f64::INFINITY, |s| s.voxel_count() as f64)
+        .map(|(_, part)| match scene.part_spec(part, lattice, reach) {
+            Ok(spec) => spec.voxel_count() as f64,
+            Err(_) => {
+                let e = part.bounds().extent();
+                [e.x, e.y, e.z].iter().map(|e| e / voxel + 3.0).product()
+            }
         })
         .sum();
     let limit = f64::from(MAX_PART_VOLUME_FACTOR) * lattice.spec.voxel_count() as f64;

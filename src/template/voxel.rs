@@ -53,8 +53,10 @@ pub struct VoxelTemplate {
     /// A model's anchor part voxelized on its own, or the scene part a
     /// selection was made on.
     voxels: PartVoxels,
-    /// For a selection, the scene part [`VoxelTemplate::voxels`] is.
+    /// For a selection, the scene part [`VoxelTemplate::voxels`] are of.
     scene_part: Option<usize>,
+    /// They are that part's whole grid (not a window around the sphere).
+    whole_part: bool,
     /// How the scene is divided for it.
     parts: Parts,
     /// No copy can lie on a part whose bounding sphere is smaller.
@@ -84,6 +86,7 @@ impl VoxelTemplate {
         let (layers, backend) = (options.layers, options.backend);
         check_layers(layers)?;
         let voxel_size = lattice.spec.voxel_size;
+        let mut whole_part = false;
         let (center, radius, voxels, scene_part, parts, min_part_radius, anchor, anchors) =
             match source {
                 TemplateSource::Model(model) => {
@@ -189,12 +192,24 @@ impl VoxelTemplate {
                         lattice.resolution
                     )
                 })?;
-                    let voxels = scene.voxelize_part(
-                        &scene.parts(Parts::Components)[part],
-                        lattice,
-                        radius / voxel_size,
-                        &held,
-                    )?;
+                    let selected = &scene.parts(Parts::Components)[part];
+                    whole_part = scene.fits_one_grid(selected, lattice, radius / voxel_size);
+                    let voxels = if whole_part {
+                        scene.voxelize_part(selected, lattice, radius / voxel_size, &held)?
+                    } else {
+                        // A part too large for one grid: the sphere's window.
+                        let sphere = Aabb {
+                            min: snapped - Vec3::splat(radius),
+                            max: snapped + Vec3::splat(radius),
+                        };
+                        scene.voxelize_around(
+                            selected,
+                            lattice,
+                            sphere,
+                            radius / voxel_size,
+                            &held,
+                        )?
+                    };
                     let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
                         .expect("a part has skin");
                     let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
@@ -233,6 +248,7 @@ impl VoxelTemplate {
             radii: evenly_spaced(radius, layers),
             voxels,
             scene_part,
+            whole_part,
             parts,
             min_part_radius,
             anchors,
@@ -274,10 +290,15 @@ impl VoxelTemplate {
         &self.voxels
     }
 
-    /// For a selection, the scene part it was made on (whose voxels
-    /// [`VoxelTemplate::voxels`] are).
+    /// For a selection, the scene part it was made on.
     pub fn scene_part(&self) -> Option<usize> {
         self.scene_part
+    }
+
+    /// The voxels of scene part `part` when they are this template's (a
+    /// selection on a part that fits one grid): the search reuses them.
+    pub fn voxels_of_part(&self, part: usize) -> Option<&PartVoxels> {
+        (self.scene_part == Some(part) && self.whole_part).then_some(&self.voxels)
     }
 
     /// How the scene is divided into parts for this template.

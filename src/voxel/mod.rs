@@ -11,6 +11,7 @@ mod grid;
 mod pyramid;
 mod skin;
 mod surface;
+mod window;
 
 pub use ball::Ball;
 pub use fill::fill_solid;
@@ -18,6 +19,7 @@ pub use grid::{Grid, GridSpec, PADDING};
 pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};
 pub use skin::{dilate, skin, spaced};
 pub use surface::voxelize_surface;
+pub use window::WindowedMesh;
 
 use crate::exec::Backend;
 use crate::mesh::TriMesh;

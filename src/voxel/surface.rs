@@ -16,10 +16,21 @@ use crate::mesh::TriMesh;
 
 /// The voxels touched by the mesh's surface.
 pub fn voxelize_surface(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
+    let all: Vec<u32> = (0..mesh.triangles().len() as u32).collect();
+    voxelize_triangles(mesh, &all, spec, backend)
+}
+
+/// The voxels touched by `triangles` of `mesh`.
+pub(crate) fn voxelize_triangles(
+    mesh: &TriMesh,
+    triangles: &[u32],
+    spec: &GridSpec,
+    backend: Backend,
+) -> Grid {
     let grid = AtomicGrid::new(*spec);
-    backend.for_each_range(mesh.triangles().len(), 8192, |range| {
-        for t in range {
-            let tri = mesh.corners(t).map(|p| spec.to_grid(p));
+    backend.for_each_range(triangles.len(), 8192, |range| {
+        for &t in &triangles[range] {
+            let tri = mesh.corners(t as usize).map(|p| spec.to_grid(p));
             for_each_touched_voxel(tri, spec.dims, |x, y, z| grid.set(x, y, z));
         }
     });
@@ -27,7 +38,9 @@ pub fn voxelize_surface(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Gr
 }
 
 /// Calls `visit` for every voxel the triangle (in grid units) meets, clamped
-/// to the grid.
+/// to the grid: a triangle that reaches past the grid also marks the
+/// outermost voxels it overhangs (a window's border, which nothing reads),
+/// and one whose box misses the grid marks nothing.
 pub(crate) fn for_each_touched_voxel(
     tri: [Vec3; 3],
     dims: [usize; 3],
@@ -35,6 +48,9 @@ pub(crate) fn for_each_touched_voxel(
 ) {
     let lo_p = tri[0].min(tri[1]).min(tri[2]);
     let hi_p = tri[0].max(tri[1]).max(tri[2]);
+    if (0..3).any(|a| hi_p[a] < 0.0 || lo_p[a] >= dims[a] as f64) {
+        return;
+    }
     // Truncation is floor here: mesh points never have negative grid
     // coordinates (the grid is padded around them), and `max(0.0)` guards
     // callers that pass points outside.

@@ -1,5 +1,6 @@
 //! Voxelization against analytic and independent oracles.
 
+use super::window::WindowedMesh;
 use super::*;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::TriMesh;
@@ -229,5 +230,61 @@ fn spaced_skin_keeps_one_voxel_per_cube() {
             kept.iter()
                 .any(|k| (0..3).all(|i| k[i].abs_diff(v[i]) <= 1))
         );
+    }
+}
+
+#[test]
+fn a_window_holds_the_whole_grids_voxels_off_its_border() {
+    // Overlapping shells, an open one (a sphere with a hole: its columns
+    // through the hole abstain) and a closed box, cut by windows through
+    // every one of them.
+    let mut mesh = torus(Vec3::ZERO, 1.0, 0.35, 48, 24);
+    let holed = uv_sphere(Vec3::new(0.9, 0.4, 0.2), 0.6, 24, 48);
+    let kept: Vec<u32> = (0..holed.triangles().len() as u32)
+        .filter(|&t| {
+            let c = holed.corners(t as usize);
+            (c[0] + c[1] + c[2]).z / 3.0 < 0.65
+        })
+        .collect();
+    mesh.append(&holed.subset(&kept));
+    mesh.append(&cuboid(
+        Vec3::new(-1.2, -0.3, -0.5),
+        Vec3::new(-0.4, 1.3, 0.1),
+    ));
+    // Off the mesh's box by a fraction of a voxel: the extreme vertices
+    // would lie on voxel boundaries, where the two grids' origins round
+    // differently.
+    let mut whole_spec = spec_for(&mesh, 80);
+    whole_spec.origin -= Vec3::splat(0.37 * whole_spec.voxel_size);
+    whole_spec.dims = whole_spec.dims.map(|d| d + 1);
+    let whole = voxelize(&mesh, &whole_spec, Backend::Parallel);
+    let windowed = WindowedMesh::new(mesh.clone(), Backend::Parallel);
+    let b = mesh.bounds();
+    let boxes = [
+        (Vec3::new(-0.2, -0.2, -0.2), Vec3::new(0.3, 0.5, 0.1)),
+        (Vec3::new(0.5, 0.0, -0.1), Vec3::new(1.6, 0.9, 0.9)),
+        (b.min, Vec3::new(-0.3, 0.1, 0.0)),
+        (Vec3::new(-1.0, 0.8, 0.0), b.max),
+    ];
+    for (lo, hi) in boxes {
+        let spec = whole_spec.crop(Aabb { min: lo, max: hi }, 3).unwrap();
+        let window = windowed.voxelize(&spec, Backend::Parallel);
+        let shift = ((spec.origin - whole_spec.origin) / spec.voxel_size)
+            .round()
+            .to_array()
+            .map(|c| c as i64);
+        let [nx, ny, nz] = spec.dims.map(|d| d as i64);
+        let (mut compared, mut solid) = (0, 0);
+        for z in 1..nz - 1 {
+            for y in 1..ny - 1 {
+                for x in 1..nx - 1 {
+                    let want = whole.get(x + shift[0], y + shift[1], z + shift[2]);
+                    assert_eq!(window.get(x, y, z), want, "{x} {y} {z} of {spec:?}");
+                    compared += 1;
+                    solid += usize::from(want);
+                }
+            }
+        }
+        assert!(solid > 100 && solid < compared, "{solid} of {compared}");
     }
 }

@@ -23,6 +23,9 @@ impl fmt::Display for Table<'_> {
                 "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points",
                 g.resolution, g.voxel_size, g.skin_voxels
             )?;
+            if g.windows > 0 {
+                writeln!(f, "large parts searched in {} windows", g.windows)?;
+            }
         }
         if let Some(s) = &report.surface {
             writeln!(

@@ -47,11 +47,25 @@ pub(crate) use shells::{Shell, shells};
 /// The voxels whose centre lies inside the mesh's solid (the surface itself
 /// is not included; see [`super::voxelize`]).
 pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
-    let shells = shells(mesh, backend);
+    fill_shells(mesh, &shells(mesh, backend), spec, backend)
+}
+
+/// The voxels whose centre lies inside one of `shells` of `mesh`. A shell
+/// may be given in part (a window's: see [`super::window`]), with the
+/// closedness of the whole: every column of the grid must cross the same
+/// triangles of it as the whole shell does.
+pub(crate) fn fill_shells(
+    mesh: &TriMesh,
+    shells: &[Shell],
+    spec: &GridSpec,
+    backend: Backend,
+) -> Grid {
     let out = AtomicGrid::new(*spec);
     backend.for_each_range(shells.len(), 1, |range| {
         for s in range {
-            fill_shell(mesh, &shells[s], spec, &out, backend, Path::Cheaper);
+            if !shells[s].triangles.is_empty() {
+                fill_shell(mesh, &shells[s], spec, &out, backend, Path::Cheaper);
+            }
         }
     });
     out.into_grid()

@@ -1,0 +1,172 @@
+//! Windows: a part too large for one dense grid at the template's voxel
+//! size (a floor slab, a scan, a game level welded into one mesh) is
+//! searched a box at a time (see `voxel::window`).
+//!
+//! The cores of a part's windows tile its box, so every skin voxel is a
+//! candidate in exactly one window; each window is padded by twice the
+//! template's radius and a margin, as far as a placed template reaches
+//! from its anchor, so that a candidate near a core's side reads what the
+//! whole part's grid would give. A copy whose points fall in two cores is
+//! found in both; the search merges such finds.
+
+use crate::budget::voxel_bytes;
+use crate::math::{Aabb, Vec3};
+use crate::scene::{Lattice, Scene, ScenePart};
+use crate::voxel::GridSpec;
+
+/// Voxels past twice the template's radius that a window adds on each
+/// side: verification's shifts, the pose refinement, and the outermost
+/// layer that is not exact.
+const MARGIN: usize = 8;
+
+/// Most voxels a window may have along a side: a voxel coordinate is u16.
+const MAX_SIDE: usize = 60_000;
+
+/// One box of a part's search.
+pub(super) struct Window {
+    /// The window's grid, on the search's lattice.
+    pub spec: GridSpec,
+    /// Its core, `[lo, hi)` per axis in the window's voxels.
+    core: [[usize; 2]; 3],
+}
+
+impl Window {
+    /// Whether window voxel `v` lies in the core (is a candidate here).
+    pub fn holds(&self, v: [u16; 3]) -> bool {
+        (0..3).all(|a| (self.core[a][0]..self.core[a][1]).contains(&usize::from(v[a])))
+    }
+
+    /// The core in world space.
+    pub fn core_bounds(&self) -> Aabb {
+        let corner = |i: usize| {
+            let [x, y, z] = [0, 1, 2].map(|a| self.core[a][i] as f64);
+            self.spec.origin + Vec3::new(x, y, z) * self.spec.voxel_size
+        };
+        Aabb {
+            min: corner(0),
+            max: corner(1),
+        }
+    }
+}
+
+/// The windows that `part` is searched in, each at most
+/// [`Scene::window_bytes`], or `None` when it fits one grid
+/// ([`Scene::fits_one_grid`]).
+pub(super) fn part_windows(
+    scene: &Scene,
+    part: &ScenePart,
+    lattice: &Lattice,
+    reach: f64,
+) -> Option<Vec<Window>> {
+    if scene.fits_one_grid(part, lattice, reach) {
+        return None;
+    }
+    let limit = scene.window_bytes();
+    let spec = &lattice.spec;
+    let pad = (2.0 * reach).ceil().max(0.0) as usize + MARGIN;
+    // The part's voxels on the lattice, [lo, hi) per axis, and one more on
+    // each side: a vertex on a voxel's side may round into either.
+    let (low, high) = (
+        spec.to_grid(part.bounds().min),
+        spec.to_grid(part.bounds().max),
+    );
+    let lo = [0, 1, 2].map(|a| low[a].floor() as i64 - 1);
+    let hi = [0, 1, 2].map(|a| high[a].floor() as i64 + 2);
+    let extent = [0, 1, 2].map(|a| (hi[a] - lo[a]).max(1) as usize);
+    // Split the longest core until a window fits.
+    let mut count = [1usize; 3];
+    let core = |count: &[usize; 3]| [0, 1, 2].map(|a| extent[a].div_ceil(count[a]));
+    loop {
+        let sides = core(&count).map(|c| c + 2 * pad);
+        let window = GridSpec {
+            origin: spec.origin,
+            voxel_size: spec.voxel_size,
+            dims: sides,
+        };
+        let fits = voxel_bytes(&window) <= limit && sides.iter().all(|&s| s <= MAX_SIDE);
+        let cores = core(&count);
+        let axis = (0..3)
+            .filter(|&a| cores[a] > pad.max(1))
+            .max_by_key(|&a| cores[a]);
+        match axis {
+            Some(a) if !fits => count[a] += 1,
+            _ => break,
+        }
+    }
+    let side = core(&count);
+    let mut windows = Vec::new();
+    for k in 0..count[2] {
+        for j in 0..count[1] {
+            for i in 0..count[0] {
+                let at = [i, j, k];
+                let first = [0, 1, 2].map(|a| lo[a] + (at[a] * side[a]) as i64);
+                let last = [0, 1, 2].map(|a| (first[a] + side[a] as i64).min(hi[a]));
+                if (0..3).any(|a| last[a] <= first[a]) {
+                    continue;
+                }
+                let start = [0, 1, 2].map(|a| (first[a] - pad as i64) as f64);
+                let len = [0, 1, 2].map(|a| (last[a] - first[a]) as usize);
+                windows.push(Window {
+                    spec: GridSpec {
+                        origin: spec.origin
+                            + Vec3::new(start[0], start[1], start[2]) * spec.voxel_size,
+                        voxel_size: spec.voxel_size,
+                        dims: len.map(|l| l + 2 * pad),
+                    },
+                    core: [0, 1, 2].map(|a| [pad, pad + len[a]]),
+                });
+            }
+        }
+    }
+    Some(windows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SceneOptions;
+    use crate::mesh::shapes::cuboid;
+    use crate::scene::Parts;
+
+    #[test]
+    fn the_cores_of_a_large_parts_windows_tile_its_voxels_once() {
+        let slab = cuboid(Vec3::new(-50.0, -40.0, -0.3), Vec3::new(50.0, 40.0, 0.0));
+        let scene = Scene::new(slab, &SceneOptions::DEFAULT).unwrap();
+        let lattice = scene.lattice_for(0.1, 32.0).unwrap();
+        let part = &scene.parts(Parts::Components)[0];
+        let reach = 0.1 / lattice.spec.voxel_size;
+        let windows = part_windows(&scene, part, &lattice, reach).expect("windows");
+        assert!(windows.len() > 1);
+        let limit = scene.window_bytes();
+        let mut covered = 0.0;
+        for w in &windows {
+            assert!(voxel_bytes(&w.spec) <= limit);
+            let c = w.core_bounds();
+            let e = c.extent();
+            covered += e.x * e.y * e.z;
+            // Cores do not overlap.
+            for v in &windows {
+                if !std::ptr::eq(v, w) {
+                    let d = v.core_bounds();
+                    let meet =
+                        (0..3).all(|a| d.min[a] < c.max[a] - 1e-9 && c.min[a] < d.max[a] - 1e-9);
+                    assert!(!meet, "{c:?} and {d:?}");
+                }
+            }
+            // On the lattice.
+            let o = (w.spec.origin - lattice.spec.origin) / lattice.spec.voxel_size;
+            assert!((o - o.round()).abs().max_element() < 1e-6);
+        }
+        // Together the cores hold the part's box, to a voxel.
+        let b = part.bounds().extent();
+        let voxel = lattice.spec.voxel_size;
+        let want = (b.x + voxel) * (b.y + voxel) * (b.z + voxel);
+        assert!((covered / want - 1.0).abs() < 0.05, "{covered} of {want}");
+        // A small part is one grid.
+        let small =
+            Scene::new(cuboid(Vec3::ZERO, Vec3::splat(1.0)), &SceneOptions::DEFAULT).unwrap();
+        let lattice = small.lattice_for(0.1, 32.0).unwrap();
+        let part = &small.parts(Parts::Components)[0];
+        assert!(part_windows(&small, part, &lattice, 32.0).is_none());
+    }
+}
