@@ -5,6 +5,10 @@
   slab      a square floor slab 0.3 m thick, six long ducts above it, and
             20 turned copies of a model (0.3 m bounding radius) standing
             on the slab: small parts on very large plain ones.
+  terrain   an open height field SIZE m square with a vertex every CELL m
+            (one connected surface, as a scan or a game level's ground
+            is), and 20 turned copies of the model standing on it: a part
+            too large for one grid with vertices everywhere.
   families  PARTS parts drawn from FAMILIES families of boxes, cylinders
             and capsules (0.1-3 m), each placed and turned at random over
             a 60 m floor, and 20 turned copies of the model: a building's
@@ -12,6 +16,7 @@
             every part anew.
 
   python3 scripts/make-building-scenes.py slab OUT [--size 100] [--seed 1]
+  python3 scripts/make-building-scenes.py terrain OUT [--size 30] [--cell 0.25]
   python3 scripts/make-building-scenes.py families OUT [--parts 3000]
       [--families 20] [--seed 4]
 
@@ -57,6 +62,33 @@ def slab(args, rng, t):
     return parts, placed
 
 
+def height(x, y):
+    return 0.6 * np.sin(0.31 * x) * np.cos(0.23 * y) + 0.25 * np.sin(0.9 * x + 0.4 * y)
+
+
+def terrain(args, rng, t):
+    n = int(round(args.size / args.cell)) + 1
+    xs = np.linspace(-args.size / 2, args.size / 2, n)
+    gx, gy = np.meshgrid(xs, xs, indexing="ij")
+    vertices = np.stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    ground = trimesh.Trimesh(vertices, faces, process=False)
+    placed = []
+    for _ in range(20):
+        m = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        turned = t.copy()
+        turned.apply_transform(m)
+        x, y = rng.uniform(-args.size / 2 + 1, args.size / 2 - 1, 2)
+        # Clear of the ground under the copy's whole footprint.
+        lo, hi = turned.bounds
+        under = [height(x + u, y + v) for u in (lo[0], hi[0]) for v in (lo[1], hi[1])]
+        m[:3, 3] = [x, y, max(under + [height(x, y)]) + 0.05 - lo[2]]
+        placed.append(m)
+    return [ground], placed
+
+
 def families(args, rng, t):
     def shape():
         kind = rng.integers(3)
@@ -86,17 +118,21 @@ def families(args, rng, t):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("recipe", choices=["slab", "families"])
+    p.add_argument("recipe", choices=["slab", "terrain", "families"])
     p.add_argument("out")
-    p.add_argument("--size", type=float, default=100.0)
+    p.add_argument("--size", type=float, default=None, help="metres (slab: 100, terrain: 30)")
     p.add_argument("--parts", type=int, default=3000)
+    p.add_argument("--cell", type=float, default=0.25)
     p.add_argument("--families", type=int, default=20)
     p.add_argument("--model", default="rocker-arm.obj")
     p.add_argument("--seed", type=int, default=1)
     args = p.parse_args()
+    if args.size is None:
+        args.size = 30.0 if args.recipe == "terrain" else 100.0
     rng = np.random.default_rng(args.seed)
     t = template(args.model)
-    parts, placed = (slab if args.recipe == "slab" else families)(args, rng, t)
+    recipe = {"slab": slab, "terrain": terrain, "families": families}[args.recipe]
+    parts, placed = recipe(args, rng, t)
     instances = []
     for i, m in enumerate(placed):
         copy = t.copy()
