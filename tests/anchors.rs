@@ -13,10 +13,7 @@ use glam::DQuat;
 /// the open body, and around c_T (on the lid) the filled solid differs
 /// with the turn.
 fn teapot() -> TriMesh {
-    let mesh = load(&common::model_bytes("teapot.obj"), None).unwrap();
-    let b = mesh.bounds();
-    let (centre, half) = (b.center(), b.extent().length() / 2.0);
-    mesh.map_positions(|p| (p - centre) / half).unwrap()
+    common::scaled_model("teapot.obj", 1.0)
 }
 
 #[test]
@@ -49,18 +46,7 @@ fn teapots_turned_every_way_are_all_found() {
     let c = Vec3::from_array(report.template.center);
     let r = report.template.radius;
     let truth: Vec<Vec3> = (0..turns.len()).map(|i| place(i, c)).collect();
-    let found: Vec<Vec3> = report
-        .instances
-        .iter()
-        .map(|i| Vec3::from_array(i.position))
-        .collect();
-    for (i, t) in truth.iter().enumerate() {
-        assert!(
-            found.iter().any(|p| p.distance(*t) < 0.2 * r),
-            "copy {i} missed: found {found:?}"
-        );
-    }
-    assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+    common::assert_found_exactly(&report, &truth, 0.2 * r);
 }
 
 /// The anchors `template` is read at when searched for in itself, in

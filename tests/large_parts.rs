@@ -9,16 +9,12 @@ mod common;
 
 use fast_reject::math::Vec3;
 use fast_reject::mesh::shapes::cuboid;
-use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load, search};
+use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, search};
 use glam::DQuat;
 
 /// The rocker arm scaled to a bounding radius of about `radius`, centred.
 fn fixture(radius: f64) -> TriMesh {
-    let mesh = load(&common::model_bytes("rocker-arm.obj"), None).unwrap();
-    let b = mesh.bounds();
-    let (centre, half) = (b.center(), b.extent().length() / 2.0);
-    mesh.map_positions(|p| (p - centre) * (radius / half))
-        .unwrap()
+    common::scaled_model("rocker-arm.obj", radius)
 }
 
 #[test]
@@ -68,16 +64,5 @@ fn fixtures_on_a_floor_slab_a_hundred_metres_wide_are_all_found() {
             turn * c + at + Vec3::new(0.0, 0.0, lift)
         })
         .collect();
-    let found: Vec<Vec3> = report
-        .instances
-        .iter()
-        .map(|i| Vec3::from_array(i.position))
-        .collect();
-    for (i, t) in truth.iter().enumerate() {
-        assert!(
-            found.iter().any(|p| p.distance(*t) < 0.1 * r),
-            "fixture {i} missed: found {found:?}"
-        );
-    }
-    assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+    common::assert_found_exactly(&report, &truth, 0.1 * r);
 }

@@ -248,3 +248,34 @@ pub fn assert_finds_everything(name: &str, select: bool, report: &MatchReport) {
         report.instances
     );
 }
+
+/// A shared model centred on its box and scaled so that half the box's
+/// diagonal is `radius`.
+pub fn scaled_model(file: &str, radius: f64) -> fast_reject::TriMesh {
+    let mesh = load(&model_bytes(file), None).unwrap();
+    let b = mesh.bounds();
+    let (centre, half) = (b.center(), b.extent().length() / 2.0);
+    mesh.map_positions(|p| (p - centre) * (radius / half))
+        .unwrap()
+}
+
+/// Asserts that every point of `truth` has an instance within `tolerance`
+/// of it, and that nothing else was found.
+pub fn assert_found_exactly(
+    report: &MatchReport,
+    truth: &[fast_reject::math::Vec3],
+    tolerance: f64,
+) {
+    let found: Vec<fast_reject::math::Vec3> = report
+        .instances
+        .iter()
+        .map(|i| fast_reject::math::Vec3::from_array(i.position))
+        .collect();
+    for (i, t) in truth.iter().enumerate() {
+        assert!(
+            found.iter().any(|p| p.distance(*t) < tolerance),
+            "copy {i} missed: found {found:?}"
+        );
+    }
+    assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
+}
