@@ -6,6 +6,7 @@ use super::transform::{phi, theta};
 use super::{RINGS, SECTORS};
 use crate::exec::Backend;
 use crate::voxel::{Grid, Solid, level_for_radius};
+use std::sync::OnceLock;
 
 /// Spheres are sampled from pyramid blocks at least this many times smaller
 /// than their radius: the degrees kept (l < 16) only resolve features of
@@ -19,6 +20,24 @@ pub const BLOCKS_PER_RADIUS: f64 = 10.0;
 /// matters, while integer floors and fractions vectorize where float-to-int
 /// conversions do not.
 const FIXED: u32 = 16;
+
+/// The sample directions (sin theta cos phi, sin theta sin phi, cos theta),
+/// ring by ring, computed once: every part's spheres share them, and a
+/// scene of thousands of parts spent 4% of its search on their sines.
+fn unit_directions() -> &'static [[f64; 3]] {
+    static DIRECTIONS: OnceLock<Vec<[f64; 3]>> = OnceLock::new();
+    DIRECTIONS.get_or_init(|| {
+        let mut out = Vec::with_capacity(RINGS * SECTORS);
+        for j in 0..RINGS {
+            let (st, ct) = theta(j).sin_cos();
+            for k in 0..SECTORS {
+                let (sp, cp) = phi(k).sin_cos();
+                out.push([st * cp, st * sp, ct]);
+            }
+        }
+        out
+    })
+}
 
 /// Samples are processed in chunks: positions and weights in one pass, the
 /// scattered reads in another, the interpolation in a third, so that the
@@ -72,10 +91,10 @@ impl SphereSampler {
         };
         let scale = f64::from(1u32 << level);
         for j in 0..RINGS {
-            let (st, ct) = theta(j).sin_cos();
             for k in 0..SECTORS {
-                let (sp, cp) = phi(k).sin_cos();
-                let d = [st * cp * radius, st * sp * radius, ct * radius];
+                // (st cp, st sp, ct) times the radius, rounded as before.
+                let u = unit_directions()[j * SECTORS + k];
+                let d = [u[0] * radius, u[1] * radius, u[2] * radius];
                 if level > 0 {
                     for a in 0..3 {
                         s.reach[a].push((d[a] / scale * f64::from(1u32 << FIXED)).round() as i32);
