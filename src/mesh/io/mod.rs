@@ -61,11 +61,35 @@ pub fn load_within(
     if bytes.is_empty() {
         return Err(Error::malformed(format, "start", "the input is empty"));
     }
+    // A format named for content whose magic names another (a .glb saved
+    // as .obj, bytes handed over with the wrong format) would otherwise
+    // fail deep in the wrong parser, with a message about that parser.
+    if let Some((other, magic)) = magic(bytes).filter(|&(other, _)| other != format) {
+        return Err(Error::malformed(
+            format,
+            "start",
+            format!(
+                "the content is {other} (it starts with '{magic}'), not {format}: name the format it is, or leave it to be recognized"
+            ),
+        ));
+    }
     match format {
         Format::Gltf => gltf::parse(bytes, resources, max_mesh_bytes),
         Format::Obj => obj::parse(bytes),
         Format::Ply => ply::parse(bytes),
         Format::Stl => stl::parse(bytes),
+    }
+}
+
+/// The format that a file's magic bytes name, with the magic: only the
+/// signatures no other format can start with.
+fn magic(bytes: &[u8]) -> Option<(Format, &'static str)> {
+    if bytes.starts_with(b"glTF") {
+        Some((Format::Gltf, "glTF"))
+    } else if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
+        Some((Format::Ply, "ply"))
+    } else {
+        None
     }
 }
 
@@ -189,6 +213,25 @@ mod tests {
         for f in [Format::Gltf, Format::Obj, Format::Ply, Format::Stl] {
             assert!(matches!(load(b"", Some(f)), Err(Error::Malformed { .. })));
         }
+    }
+
+    #[test]
+    fn content_of_another_format_than_the_one_named_says_which_it_is() {
+        for (bytes, named, is) in [
+            (fixtures::INSTANCES_GLB, Format::Obj, "glTF"),
+            (fixtures::INSTANCES_GLB, Format::Stl, "glTF"),
+            (fixtures::PLY, Format::Gltf, "PLY"),
+        ] {
+            let message = load(bytes, Some(named)).unwrap_err().to_string();
+            assert!(
+                message.contains(&format!("the content is {is}"))
+                    && message.contains(&format!("not {named}")),
+                "{message}"
+            );
+        }
+        // Named rightly, or not named, they load.
+        assert!(load(fixtures::INSTANCES_GLB, Some(Format::Gltf)).is_ok());
+        assert!(load(fixtures::PLY, Some(Format::Ply)).is_ok());
     }
 
     /// The triangles as sorted corner coordinates, each triangle turned to

@@ -89,10 +89,15 @@ fn check_glb_header(bytes: &[u8]) -> Result<()> {
         return header(format!("{} bytes, fewer than the header's 12", bytes.len()));
     };
     let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]) as usize;
-    if length < 12 || length > bytes.len() {
+    if length > bytes.len() {
         return header(format!(
-            "declares {length} bytes, but the file has {} and the header alone is 12",
+            "the file is truncated: it declares {length} bytes, and {} are here",
             bytes.len()
+        ));
+    }
+    if length < 12 {
+        return header(format!(
+            "declares {length} bytes, fewer than the header's own 12"
         ));
     }
     Ok(())
