@@ -295,3 +295,32 @@ fn one_thread_gives_the_same_instances() {
     };
     assert_eq!(run("1"), run("2"));
 }
+
+#[test]
+fn a_file_is_read_by_its_content_before_its_extension() {
+    // A binary glTF saved as .obj is still found in.
+    let dir = common::scene_dir("zoo-bunny");
+    let misnamed = scratch("misnamed").join("scene.obj");
+    std::fs::copy(dir.join("scene.glb"), &misnamed).unwrap();
+    let template = dir.join("template.glb");
+    let out = cli(&[
+        "match",
+        path_str(&misnamed),
+        "--template",
+        path_str(&template),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["instances"].as_array().unwrap().len(), 4);
+    // Content no loader recognizes is left to the extension's parser.
+    let text = scratch("misnamed").join("notes.obj");
+    std::fs::write(&text, "hello\n").unwrap();
+    let out = cli(&["match", path_str(&text), "--template", path_str(&template)]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("notes.obj': the mesh has no triangles"),
+        "{}",
+        stderr(&out)
+    );
+}

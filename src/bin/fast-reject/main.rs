@@ -10,7 +10,7 @@ use clap::{Parser, Subcommand};
 use fast_reject::Format;
 use fast_reject::exec::Backend;
 use fast_reject::mesh::TriMesh;
-use fast_reject::mesh::io::load_with_resources;
+use fast_reject::mesh::io::{load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
 use fast_reject::template::TemplateSource;
@@ -173,10 +173,14 @@ fn parse_select(s: &str) -> Result<TemplateSource, String> {
 fn load_file(path: &Path) -> Result<TriMesh, String> {
     let bytes =
         std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    let format = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .and_then(Format::from_extension);
+    // The content first: a .glb saved as .obj is still a glTF. The
+    // extension names the parser whose error a user sees when the content
+    // is not recognized.
+    let format = sniff(&bytes).or_else(|| {
+        path.extension()
+            .and_then(|e| e.to_str())
+            .and_then(Format::from_extension)
+    });
     let resolver = FolderResolver::beside(path)
         .map_err(|e| format!("cannot find the folder of '{}': {e}", path.display()))?;
     load_with_resources(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", path.display()))
