@@ -82,6 +82,12 @@ impl NearVertices {
             .any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| self.cells.get(x, y, z))))
     }
 
+    /// How far from every vertex a point that [`NearVertices::near`]
+    /// accepts may lie: across its cell and a neighbour's.
+    pub(super) fn farthest(&self) -> f64 {
+        2.0 * 3f64.sqrt() * self.cells.spec().voxel_size
+    }
+
     /// Bytes its cells take.
     pub(super) fn bytes(&self) -> u64 {
         8 * self.cells.words().len() as u64

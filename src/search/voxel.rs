@@ -241,10 +241,37 @@ impl PartSearch<'_> {
         let mut instances: Vec<Instance> = Vec::new();
         for window in &windows {
             let core = window.core_bounds();
-            // No copy can be anchored here, or nothing is here at all.
-            if near.as_ref().is_some_and(|n| !n.any_in(&core)) || !windowed.any_triangle_in(&core) {
+            // No copy can be anchored here.
+            if near.as_ref().is_some_and(|n| !n.any_in(&core)) {
                 continue;
             }
+            // A candidate the vertex test passes lies within its farthest
+            // distance of a vertex, so of a triangle that meets the core
+            // grown by it: the core is cut down to those triangles' box,
+            // grown by it (a window over a terrain or a scan is mostly empty
+            // space above and below the sheet).
+            let fitted;
+            let window = match near.as_ref() {
+                Some(near) => {
+                    let far = Vec3::splat(near.farthest());
+                    let grown = Aabb {
+                        min: core.min - far,
+                        max: core.max + far,
+                    };
+                    let Some(content) = windowed.content_in(&grown) else {
+                        continue;
+                    };
+                    let Some(fit) = window.fitted(&Aabb {
+                        min: content.min - far,
+                        max: content.max + far,
+                    }) else {
+                        continue;
+                    };
+                    fitted = fit;
+                    &fitted
+                }
+                None => window,
+            };
             let mut estimate = held.clone();
             estimate.add(
                 "a window's voxel grids and count pyramid",

@@ -28,9 +28,48 @@ pub(super) struct Window {
     pub spec: GridSpec,
     /// Its core, `[lo, hi)` per axis in the window's voxels.
     core: [[usize; 2]; 3],
+    /// The lattice, the core in its voxels (`[first, last)`), the padding.
+    lattice: GridSpec,
+    first: [i64; 3],
+    last: [i64; 3],
+    pad: usize,
 }
 
 impl Window {
+    /// The window whose core is the lattice's voxels `[first, last)`.
+    fn new(lattice: &GridSpec, first: [i64; 3], last: [i64; 3], pad: usize) -> Window {
+        let start = [0, 1, 2].map(|a| (first[a] - pad as i64) as f64);
+        let len = [0, 1, 2].map(|a| (last[a] - first[a]) as usize);
+        Window {
+            spec: GridSpec {
+                origin: lattice.origin
+                    + Vec3::new(start[0], start[1], start[2]) * lattice.voxel_size,
+                voxel_size: lattice.voxel_size,
+                dims: len.map(|l| l + 2 * pad),
+            },
+            core: [0, 1, 2].map(|a| [pad, pad + len[a]]),
+            lattice: *lattice,
+            first,
+            last,
+            pad,
+        }
+    }
+
+    /// This window with its core cut down to `content` (and a voxel more
+    /// on each side), or `None` when they miss: a window over a sheet (a
+    /// terrain, a scan) is mostly empty space above and below it.
+    pub fn fitted(&self, content: &Aabb) -> Option<Window> {
+        let (low, high) = (
+            self.lattice.to_grid(content.min),
+            self.lattice.to_grid(content.max),
+        );
+        let first = [0, 1, 2].map(|a| self.first[a].max(low[a].floor() as i64 - 1));
+        let last = [0, 1, 2].map(|a| self.last[a].min(high[a].floor() as i64 + 2));
+        (0..3)
+            .all(|a| first[a] < last[a])
+            .then(|| Window::new(&self.lattice, first, last, self.pad))
+    }
+
     /// Whether window voxel `v` lies in the core (is a candidate here).
     pub fn holds(&self, v: [u16; 3]) -> bool {
         (0..3).all(|a| (self.core[a][0]..self.core[a][1]).contains(&usize::from(v[a])))
@@ -104,17 +143,7 @@ pub(super) fn part_windows(
                 if (0..3).any(|a| last[a] <= first[a]) {
                     continue;
                 }
-                let start = [0, 1, 2].map(|a| (first[a] - pad as i64) as f64);
-                let len = [0, 1, 2].map(|a| (last[a] - first[a]) as usize);
-                windows.push(Window {
-                    spec: GridSpec {
-                        origin: spec.origin
-                            + Vec3::new(start[0], start[1], start[2]) * spec.voxel_size,
-                        voxel_size: spec.voxel_size,
-                        dims: len.map(|l| l + 2 * pad),
-                    },
-                    core: [0, 1, 2].map(|a| [pad, pad + len[a]]),
-                });
+                windows.push(Window::new(spec, first, last, pad));
             }
         }
     }

@@ -51,9 +51,18 @@ impl WindowedMesh {
         12 * self.mesh.positions().len() as u64 + (12 + 4 + 48) * triangles
     }
 
-    /// Whether a triangle's box meets `bounds`.
-    pub fn any_triangle_in(&self, bounds: &Aabb) -> bool {
-        self.boxes.iter().any(|b| overlapping_axes(b, bounds) == 3)
+    /// The box of the triangles whose boxes meet `bounds`, or `None` when
+    /// none does.
+    pub fn content_in(&self, bounds: &Aabb) -> Option<Aabb> {
+        self.boxes
+            .iter()
+            .filter(|b| overlapping_axes(b, bounds) == 3)
+            .fold(None, |acc: Option<Aabb>, b| {
+                Some(acc.map_or(*b, |a| Aabb {
+                    min: a.min.min(b.min),
+                    max: a.max.max(b.max),
+                }))
+            })
     }
 
     /// The solid voxels of the window `spec`, equal to the whole part's off
