@@ -236,6 +236,19 @@ pub enum Error {
         distance: f64,
     },
 
+    /// A template's triangles mark no voxel: each is thinner than f64
+    /// rounding at the grid's coordinates (a sliver far from the origin
+    /// under huge voxels), so there is nothing to describe.
+    #[error(
+        "the {what} fills no voxel (voxels {voxel_size:e} wide): its triangles are slivers at these coordinates; check the file's units and coordinates"
+    )]
+    NothingVoxelized {
+        /// "template" or "selected part".
+        what: &'static str,
+        /// The voxel size.
+        voxel_size: f64,
+    },
+
     /// An option has a value the matcher cannot use.
     #[error("invalid option {name}: {message}")]
     InvalidOption {

@@ -6,7 +6,7 @@ use fast_reject::mesh::shapes::uv_sphere;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, search};
 use fast_reject::template::TemplateSource;
-use fast_reject::{Error, Format};
+use fast_reject::{Error, Format, TriMesh};
 
 const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
 
@@ -332,4 +332,26 @@ fn cancelling_stops_the_search() {
     let e = search(&scene, &sel, &MatchOptions::DEFAULT, &mut stop_after_two).unwrap_err();
     assert!(matches!(e, Error::Cancelled));
     assert_eq!(layers_seen, 2);
+}
+
+#[test]
+fn a_template_of_slivers_that_fill_no_voxel_is_an_error() {
+    // One triangle 7e31 long and 1 wide: under voxels of 1.8e30 its corners
+    // round onto one line, and it marks no voxel (found by the fuzzer).
+    let mesh = TriMesh::new(
+        vec![
+            [0.0, 0.0, 3.851_86e-34],
+            [0.0, 1.0, 7.144_028e31],
+            [0.970_359, 1.0, 0.0],
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let scene = Scene::new(mesh, &SceneOptions::DEFAULT.with_resolution(20)).unwrap();
+    let selection = TemplateSource::Selection {
+        center: [0.0, 0.0, 0.0],
+        radius: 5.746e31,
+    };
+    let e = search(&scene, &selection, &MatchOptions::DEFAULT, &mut ()).unwrap_err();
+    assert!(matches!(e, Error::NothingVoxelized { .. }), "{e}");
 }

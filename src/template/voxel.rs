@@ -136,8 +136,12 @@ impl VoxelTemplate {
                     // with overlapping shells, the nearest point of a mesh may be
                     // buried inside another shell. So: the nearest skin voxel,
                     // then the mesh point nearest to it.
-                    let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center)
-                        .expect("a voxelized mesh has skin");
+                    let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center).ok_or(
+                        Error::NothingVoxelized {
+                            what: "template",
+                            voxel_size,
+                        },
+                    )?;
                     let center = model.closest_point(spec.center(nearest)).point;
                     let radius = model
                         .positions()
@@ -211,7 +215,10 @@ impl VoxelTemplate {
                         )?
                     };
                     let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
-                        .expect("a part has skin");
+                        .ok_or(Error::NothingVoxelized {
+                            what: "selected part",
+                            voxel_size,
+                        })?;
                     let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
                     // The selected material holds c_T and every selected vertex,
                     // so its bounding sphere is at least half their distance.
