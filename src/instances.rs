@@ -134,6 +134,33 @@ pub fn group(
     found.into_iter().map(|(_, i)| i).collect()
 }
 
+/// The report's order: by score, then by distance.
+pub fn best_first(a: &Instance, b: &Instance) -> std::cmp::Ordering {
+    b.score
+        .unwrap_or(0.0)
+        .total_cmp(&a.score.unwrap_or(0.0))
+        .then(a.distance.total_cmp(&b.distance))
+}
+
+/// One instance per copy, as [`group`] keeps one per blob: of instances
+/// within `radius` of a better one ([`best_first`]), only the best is
+/// kept, with their support (a copy found from two windows of a part).
+pub fn merge_duplicates(mut instances: Vec<Instance>, radius: f64) -> Vec<Instance> {
+    instances.sort_by(best_first);
+    let mut kept: Vec<Instance> = Vec::new();
+    for instance in instances {
+        let p = Vec3::from_array(instance.position);
+        match kept
+            .iter_mut()
+            .find(|k| Vec3::from_array(k.position).distance(p) <= radius)
+        {
+            Some(k) => k.support += instance.support,
+            None => kept.push(instance),
+        }
+    }
+    kept
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

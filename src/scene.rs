@@ -364,16 +364,8 @@ impl Scene {
         let resolution = needed.min(MAX_LATTICE_RESOLUTION) as u32;
         // As `GridSpec::for_scene` places it, past its limit of a grid's
         // side: only crops of it are ever allocated.
-        let voxel_size = longest / f64::from(resolution);
-        let pad = PADDING as f64 * voxel_size;
-        let e = bounds.extent();
-        let dims = [e.x, e.y, e.z].map(|e| (e / voxel_size).floor() as usize + 1 + 2 * PADDING);
         Ok(Lattice {
-            spec: GridSpec {
-                origin: bounds.min - Vec3::splat(pad),
-                voxel_size,
-                dims,
-            },
+            spec: GridSpec::lattice(bounds, longest / f64::from(resolution)),
             resolution,
         })
     }

@@ -16,7 +16,9 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
-use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
+use crate::instances::{
+    Instance, Verified, best_first, group, local_bests, merge_duplicates, placement_transform,
+};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
@@ -154,12 +156,7 @@ pub(super) fn search_voxels(
         found.instances.extend(instances);
     }
     // Best first over all parts, as within one.
-    found.instances.sort_by(|a, b| {
-        b.score
-            .unwrap_or(0.0)
-            .total_cmp(&a.score.unwrap_or(0.0))
-            .then(a.distance.total_cmp(&b.distance))
-    });
+    found.instances.sort_by(best_first);
     Ok(MatchReport {
         template: TemplateInfo::of(template.center(), template.radius()),
         instances: found.instances,
@@ -463,29 +460,6 @@ impl PartSearch<'_> {
         found.timings.group += now_ms() - t2;
         Ok(instances)
     }
-}
-
-/// One instance per copy: of finds within `radius` of a better one (by
-/// score, then distance), only the best is kept, with their support.
-fn merge_duplicates(mut instances: Vec<Instance>, radius: f64) -> Vec<Instance> {
-    instances.sort_by(|a, b| {
-        b.score
-            .unwrap_or(0.0)
-            .total_cmp(&a.score.unwrap_or(0.0))
-            .then(a.distance.total_cmp(&b.distance))
-    });
-    let mut kept: Vec<Instance> = Vec::new();
-    for instance in instances {
-        let p = Vec3::from_array(instance.position);
-        match kept
-            .iter_mut()
-            .find(|k| Vec3::from_array(k.position).distance(p) <= radius)
-        {
-            Some(k) => k.support += instance.support,
-            None => kept.push(instance),
-        }
-    }
-    kept
 }
 
 /// Surface samples the template's pose is refined with: a model's whole

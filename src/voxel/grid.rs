@@ -46,13 +46,8 @@ impl GridSpec {
     /// (templates use the scene's voxel size so that radii agree). Fails when
     /// a side would need more voxels than a voxel coordinate (u16) holds.
     pub fn around(bounds: Aabb, voxel_size: f64) -> Result<GridSpec> {
-        let pad = PADDING as f64 * voxel_size;
+        let sides = Self::sides(bounds, voxel_size);
         let ext = bounds.extent();
-        // floor + 1: a vertex exactly on the far face lands in a voxel of its
-        // own, and the padding still follows it. Counted in f64, which cannot
-        // wrap, before any conversion.
-        let sides =
-            [ext.x, ext.y, ext.z].map(|e| (e / voxel_size).floor() + 1.0 + 2.0 * PADDING as f64);
         if !sides.iter().all(|s| (1.0..=u16::MAX as f64).contains(s)) {
             return Err(Error::GridTooLarge {
                 // `as` saturates: NaN reads 0, anything past u64 reads u64::MAX.
@@ -63,11 +58,31 @@ impl GridSpec {
                 ),
             });
         }
-        Ok(GridSpec {
+        Ok(GridSpec::unchecked(bounds, voxel_size, sides))
+    }
+
+    /// As [`GridSpec::around`], with no limit on a side: a lattice that is
+    /// only ever allocated in crops (a search's, refined for a small
+    /// template over a large scene).
+    pub fn lattice(bounds: Aabb, voxel_size: f64) -> GridSpec {
+        GridSpec::unchecked(bounds, voxel_size, Self::sides(bounds, voxel_size))
+    }
+
+    /// Voxels along each side of the grid around `bounds`, in f64 (which
+    /// cannot wrap): floor + 1, so that a vertex exactly on the far face
+    /// lands in a voxel of its own and the padding still follows it.
+    fn sides(bounds: Aabb, voxel_size: f64) -> [f64; 3] {
+        let ext = bounds.extent();
+        [ext.x, ext.y, ext.z].map(|e| (e / voxel_size).floor() + 1.0 + 2.0 * PADDING as f64)
+    }
+
+    fn unchecked(bounds: Aabb, voxel_size: f64, sides: [f64; 3]) -> GridSpec {
+        let pad = PADDING as f64 * voxel_size;
+        GridSpec {
             origin: bounds.min - Vec3::new(pad, pad, pad),
             voxel_size,
             dims: sides.map(|s| s as usize),
-        })
+        }
     }
 
     /// The grid on this one's lattice that holds `bounds` with `pad` empty

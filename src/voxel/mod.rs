@@ -27,14 +27,19 @@ use crate::mesh::TriMesh;
 /// The solid voxels of a mesh: its surface voxels and its filled interior.
 pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
     // Finding shells is partly serial: it overlaps the surface pass.
-    let (mut solid, interior) = backend.join(
+    let (solid, interior) = backend.join(
         || voxelize_surface(mesh, spec, backend),
         || fill_solid(mesh, spec, backend),
     );
-    for (s, i) in solid.words_mut().iter_mut().zip(interior.words()) {
+    union(solid, &interior)
+}
+
+/// The solid: the surface voxels with the filled interior.
+fn union(mut surface: Grid, interior: &Grid) -> Grid {
+    for (s, i) in surface.words_mut().iter_mut().zip(interior.words()) {
         *s |= i;
     }
-    solid
+    surface
 }
 
 #[cfg(test)]

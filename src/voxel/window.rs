@@ -100,14 +100,11 @@ impl WindowedMesh {
         let touching: Vec<u32> = (0..overlaps.len() as u32)
             .filter(|&t| overlaps[t as usize] == 3)
             .collect();
-        let (mut solid, interior) = backend.join(
+        let (solid, interior) = backend.join(
             || voxelize_triangles(&self.mesh, &touching, spec, backend),
             || fill_shells(&self.mesh, &crossing, spec, backend),
         );
-        for (s, i) in solid.words_mut().iter_mut().zip(interior.words()) {
-            *s |= i;
-        }
-        solid
+        super::union(solid, &interior)
     }
 }
 
