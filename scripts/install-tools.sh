@@ -63,6 +63,8 @@ command -v node >/dev/null || missing+=(nodejs npm)
 if ((!viewer_only)); then
   command -v chromium >/dev/null || missing+=(chromium)
   command -v chromedriver >/dev/null || missing+=(chromium-driver)
+  # lavapipe, the software Vulkan driver the GPU tests run on.
+  [[ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ]] || missing+=(mesa-vulkan-drivers)
   command -v python3 >/dev/null || missing+=(python3)
   # Debian splits venv (with ensurepip) out of python3.
   python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)

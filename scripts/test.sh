@@ -6,6 +6,13 @@
 # come from scripts/install-tools.sh). FAST_REJECT_SKIP_WASM=1 skips those.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The GPU tests run on lavapipe (scripts/install-tools.sh installs it), the
+# only adapter it offers, so that they behave alike on every machine.
+lavapipe=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json
+if [[ -z ${VK_DRIVER_FILES:-} && -e $lavapipe ]]; then
+  export VK_DRIVER_FILES=$lavapipe
+fi
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
 cargo test --release
 cargo build --release --bin fast-reject
 echo "== evaluate.py on the required scenes"

@@ -117,6 +117,9 @@ impl<D: OnionDescriptor> Stage for D {
         for layer in order {
             let start = begun;
             let entered = live.len();
+            let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();
+            self.prepare(layer, &points);
+            drop(points);
             live = backend.filter_map_owned(live, |(p, mut state, _)| {
                 let d = self.extend(p, layer, &mut state);
                 (d <= threshold).then_some((p, state, d))

@@ -261,6 +261,13 @@ pub enum Error {
     /// The caller's observer asked to stop.
     #[error("the search was cancelled")]
     Cancelled,
+
+    /// A GPU was asked for and cannot be used.
+    #[error("no usable GPU: {reason}")]
+    Gpu {
+        /// What failed (no adapter, no device, a device error).
+        reason: String,
+    },
 }
 
 /// The library's result type.

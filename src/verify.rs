@@ -416,7 +416,7 @@ impl Verifier {
             } else if pose.lands(bits, v, *a) {
                 counts.buried += 1;
             }
-            if counts.total % 64 == 0 && give_up(&counts, samples - counts.total) {
+            if counts.total.is_multiple_of(64) && give_up(&counts, samples - counts.total) {
                 return None;
             }
         }

@@ -324,3 +324,45 @@ fn a_file_is_read_by_its_content_before_its_extension() {
         stderr(&out)
     );
 }
+
+#[test]
+fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
+    if std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
+        return;
+    }
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let run = |backend: &str| -> serde_json::Value {
+        let out = cli(&[
+            "match",
+            &scene,
+            "--template",
+            &template,
+            "--backend",
+            backend,
+            "--json",
+        ]);
+        assert!(
+            out.status.success(),
+            "--backend {backend}: {}",
+            stderr(&out)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (cpu, gpu) = (run("cpu"), run("gpu"));
+    assert!(cpu["gpu"].is_null());
+    assert!(!gpu["gpu"]["adapter"].as_str().unwrap().is_empty());
+    assert!(gpu["gpu"]["fallback"].is_null());
+    assert_eq!(cpu["stages"].as_array().unwrap().len(), 12);
+    let positions = |v: &serde_json::Value| -> Vec<serde_json::Value> {
+        v["instances"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| i["position"].clone())
+            .collect()
+    };
+    assert_eq!(positions(&cpu), positions(&gpu));
+    assert_finds_the_demo_mugs(&gpu, 0.2);
+}

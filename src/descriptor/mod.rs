@@ -59,6 +59,11 @@ pub trait OnionDescriptor: Sync {
         1
     }
 
+    /// Called once before layer `layer` is computed for the live `points`:
+    /// a descriptor that computes a layer for many points at once (on a
+    /// GPU) does it here. Nothing by default.
+    fn prepare(&self, _layer: usize, _points: &[u32]) {}
+
     /// Computes layer `layer` at `point` (in [`Self::order`]) and returns
     /// the running distance over the layers computed so far: it never
     /// decreases, and after the last layer it is the point's distance. Where

@@ -149,7 +149,7 @@ mod tests {
 
     #[test]
     fn backends_agree() {
-        let f = |i: usize| (i % 3 == 0).then_some(i * i);
+        let f = |i: usize| i.is_multiple_of(3).then_some(i * i);
         assert_eq!(
             Backend::Serial.filter_map(10_000, f),
             Backend::Parallel.filter_map(10_000, f)

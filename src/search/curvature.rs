@@ -103,6 +103,7 @@ pub(super) fn search_curvature(
             vertices: surface.vertex_count(),
             triangles: surface.triangles().len(),
         }),
+        gpu: None,
         timings,
     })
 }

@@ -12,7 +12,7 @@ mod voxel;
 mod windows;
 
 pub use options::{DescriptorKind, MatchOptions};
-pub use report::{GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
+pub use report::{GpuInfo, GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
 
 use crate::cascade::Observer;
 use crate::error::Result;
@@ -30,8 +30,34 @@ pub fn search(
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
-    voxel::search_voxels(scene, source, options, observer)
+    voxel::search_voxels(scene, source, options, observer, None)
 }
+
+/// [`search`] with the harmonics layers computed on `gpu`: the same
+/// instances (see [`crate::descriptor::harmonics::SphereBatch`]). The
+/// report's `gpu` says which adapter ran and whether layers went back to
+/// the CPU; the curvature descriptor runs on the CPU.
+#[cfg(feature = "gpu")]
+pub fn search_on_gpu(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+    gpu: &crate::gpu::Gpu,
+) -> Result<MatchReport> {
+    options.validate()?;
+    if options.descriptor == DescriptorKind::Curvature {
+        return curvature::search_curvature(scene, source, options, observer);
+    }
+    voxel::search_voxels(scene, source, options, observer, Some(gpu))
+}
+
+/// The GPU a voxel search may use (nothing can be given without the
+/// `gpu` feature).
+#[cfg(feature = "gpu")]
+type GpuRef<'a> = Option<&'a crate::gpu::Gpu>;
+#[cfg(not(feature = "gpu"))]
+type GpuRef<'a> = Option<&'a std::convert::Infallible>;
 
 #[cfg(test)]
 mod tests {

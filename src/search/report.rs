@@ -107,6 +107,17 @@ impl serde::Serialize for Timings {
     }
 }
 
+/// Where the cascade's harmonics layers ran when a GPU was given.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct GpuInfo {
+    /// The adapter, as wgpu names it, with its API.
+    pub adapter: String,
+    /// Why layers went back to the CPU, when one did (a buffer past the
+    /// device's limits, a lost device); the instances are the same.
+    pub fallback: Option<String>,
+}
+
 /// Everything a search found, in the shape of the CLI's JSON.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
@@ -121,6 +132,8 @@ pub struct MatchReport {
     pub grid: Option<GridInfo>,
     /// The welded surface (curvature; None for the voxel descriptors).
     pub surface: Option<SurfaceInfo>,
+    /// The GPU the search was given; absent when it ran on the CPU only.
+    pub gpu: Option<GpuInfo>,
     /// Stage timings.
     #[cfg_attr(feature = "serde", serde(rename = "timings_ms"))]
     pub timings: Timings,

@@ -3,6 +3,7 @@
 //! volume and harmonics stages, then verification by placement and
 //! grouping.
 
+use super::GpuRef;
 use super::congruent_parts::congruent_parts;
 use super::near_vertices::{self, NearVertices, template_gap};
 use super::options::{DescriptorKind, MatchOptions};
@@ -34,6 +35,7 @@ pub(super) fn search_voxels(
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
+    gpu: GpuRef<'_>,
 ) -> Result<MatchReport> {
     let t0 = now_ms();
     // A small template refines the grid until it spans enough voxels.
@@ -135,6 +137,7 @@ pub(super) fn search_voxels(
         vertex_reach: near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]),
         held,
         lattice: &lattice,
+        gpu,
     };
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
@@ -168,6 +171,7 @@ pub(super) fn search_voxels(
             windows: found.windows,
         }),
         surface: None,
+        gpu: gpu_info(gpu, found.gpu_fallback),
         timings: Timings {
             template: template_ms,
             ..found.timings
@@ -196,6 +200,23 @@ struct PartSearch<'a> {
     vertex_reach: f64,
     /// What the search holds besides a part's grids.
     held: MemoryEstimate,
+    /// Where the harmonics layers run, if not on the CPU.
+    #[cfg_attr(not(feature = "gpu"), expect(dead_code))]
+    gpu: GpuRef<'a>,
+}
+
+/// The report's line on the GPU given.
+#[cfg(feature = "gpu")]
+fn gpu_info(gpu: GpuRef<'_>, fallback: Option<String>) -> Option<super::GpuInfo> {
+    gpu.map(|g| super::GpuInfo {
+        adapter: g.description(),
+        fallback,
+    })
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
+    None
 }
 
 impl PartSearch<'_> {
@@ -353,8 +374,12 @@ impl PartSearch<'_> {
             options.volume_threshold,
         )
         .with_clutter(options.clutter);
+        #[cfg(feature = "gpu")]
+        let spheres = self
+            .gpu
+            .map(|g| crate::gpu::GpuSpheres::new(g, voxels.solid()));
         let harmonics = self.template_harmonics.as_ref().map(|signatures| {
-            HarmonicsDescriptor::new(
+            let h = HarmonicsDescriptor::new(
                 voxels.solid(),
                 voxels.skin(),
                 &self.transform,
@@ -367,7 +392,13 @@ impl PartSearch<'_> {
                 policy: options.clutter,
                 balls: volume.balls(),
                 templates: volume.templates(),
-            })
+            });
+            #[cfg(feature = "gpu")]
+            let h = match &spheres {
+                Some(s) => h.with_batch(s),
+                None => h,
+            };
+            h
         });
         let mut stages: Vec<&dyn Stage> = Vec::new();
         if options.descriptor != DescriptorKind::Harmonics {
@@ -383,6 +414,9 @@ impl PartSearch<'_> {
             backend,
             observer,
         )?;
+        if let Some(reason) = harmonics.as_ref().and_then(|h| h.batch_failure()) {
+            found.gpu_fallback.get_or_insert(reason);
+        }
         let t2 = now_ms();
         let position = |p| voxels.position(p);
         let mut verified: Vec<Verified> = Vec::new();
@@ -573,6 +607,8 @@ struct Found {
     skin_voxels: usize,
     windows: usize,
     timings: Timings,
+    /// Why harmonics layers went back to the CPU, the first time one did.
+    gpu_fallback: Option<String>,
 }
 
 impl Found {

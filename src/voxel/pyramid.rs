@@ -254,7 +254,7 @@ mod tests {
                     s ^= s << 13;
                     s ^= s >> 7;
                     s ^= s << 17;
-                    if s % 3 == 0 {
+                    if s.is_multiple_of(3) {
                         g.set(x, y, z);
                     }
                 }

@@ -9,10 +9,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use fast_reject::Format;
 use fast_reject::exec::Backend;
+use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::{load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
-use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search};
+use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search, search_on_gpu};
 use fast_reject::template::TemplateSource;
 use folder_resolver::FolderResolver;
 
@@ -56,6 +57,12 @@ struct MatchArgs {
     /// Worker threads (1 runs the serial backend; default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Where the harmonics layers run: the CPU; a GPU (any adapter, a
+    /// software one such as lavapipe included; an error when there is
+    /// none); or auto (a hardware GPU if there is one, else the CPU). The
+    /// instances are the same.
+    #[arg(long, value_enum, default_value_t = Compute::Cpu)]
+    backend: Compute,
     #[command(flatten)]
     options: MatchOptions,
     /// Print the result as one JSON object.
@@ -76,6 +83,32 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The `--backend` choices.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Compute {
+    Cpu,
+    Gpu,
+    Auto,
+}
+
+/// The GPU `choice` asks for, if any.
+fn gpu_for(choice: Compute) -> Result<Option<Gpu>, String> {
+    let adapters = match choice {
+        Compute::Cpu => return Ok(None),
+        Compute::Gpu => AdapterChoice::Any,
+        Compute::Auto => AdapterChoice::Hardware,
+    };
+    let gpu = Gpu::request(adapters).map_err(|e| e.to_string())?;
+    if gpu.is_none() && choice == Compute::Gpu {
+        return Err(
+            "--backend gpu: no GPU adapter was found (on Linux without a GPU, the Vulkan driver \
+             lavapipe from Debian's mesa-vulkan-drivers gives a software one); use --backend cpu or auto"
+                .into(),
+        );
+    }
+    Ok(gpu)
 }
 
 /// More threads than this many per core only add overhead.
@@ -101,6 +134,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     let mut scene_options = args.scene_options;
     scene_options.memory_budget = args.memory_budget.saturating_mul(1 << 20);
     scene_options.backend = backend;
+    let gpu = gpu_for(args.backend)?;
     let job = || -> Result<MatchReport, String> {
         let start = std::time::Instant::now();
         let scene_mesh = load_file(&args.scene)?;
@@ -112,7 +146,11 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         let load = start.elapsed().as_secs_f64() * 1e3;
         let scene = Scene::new(scene_mesh, &scene_options)
             .map_err(|e| format!("scene '{}': {e}", args.scene.display()))?;
-        let mut report = search(&scene, &source, &options, &mut ()).map_err(|e| e.to_string())?;
+        let mut report = match &gpu {
+            Some(gpu) => search_on_gpu(&scene, &source, &options, &mut (), gpu),
+            None => search(&scene, &source, &options, &mut ()),
+        }
+        .map_err(|e| e.to_string())?;
         report.timings.load = load;
         Ok(report)
     };

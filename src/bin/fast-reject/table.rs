@@ -27,6 +27,12 @@ impl fmt::Display for Table<'_> {
                 writeln!(f, "large parts searched in {} windows", g.windows)?;
             }
         }
+        if let Some(g) = &report.gpu {
+            writeln!(f, "harmonics layers on the GPU: {}", g.adapter)?;
+            if let Some(reason) = &g.fallback {
+                writeln!(f, "  some layers went back to the CPU: {reason}")?;
+            }
+        }
         if let Some(s) = &report.surface {
             writeln!(
                 f,

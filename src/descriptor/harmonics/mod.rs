@@ -40,7 +40,9 @@ mod sampler;
 mod transform;
 
 pub use sampler::{BLOCKS_PER_RADIUS, SphereSampler};
-pub use transform::SphericalTransform;
+pub use transform::{SphericalTransform, unfolded_tables};
+
+use std::sync::{Mutex, RwLock};
 
 use super::volume::closest;
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
@@ -92,6 +94,42 @@ pub fn describe_sphere(
     transform.signature(&samples)
 }
 
+/// Computes many spheres' signatures at once (on a GPU), each degree within
+/// [`SphereBatch::max_error`] of [`describe_sphere`]'s.
+///
+/// The stage reads a batch's signatures as a filter with a guard band: it
+/// carries, per anchor, how far the exact running distance can lie from
+/// the one it sums (the errors add as a norm: each sphere's term moves by
+/// at most sqrt(w) times 4 max_error, the 4 being sqrt(DEGREES)), and a
+/// point whose decision (dropped, kept, a sphere excused as cluttered)
+/// could differ within that distance is recomputed on the CPU, every
+/// sphere so far. So the stage keeps and drops exactly the points the CPU
+/// does; survivors' final distances may differ in the sixth digit.
+pub trait SphereBatch: Sync {
+    /// The signatures of the sphere `sampler` around each of `voxels`, in
+    /// order, or why they could not be computed (the stage then falls back
+    /// to the CPU).
+    fn signatures(
+        &self,
+        sampler: &SphereSampler,
+        voxels: &[[u16; 3]],
+    ) -> std::result::Result<Vec<Signature>, String>;
+
+    /// The largest difference per degree from the CPU's signature.
+    fn max_error(&self) -> f32;
+}
+
+/// One layer's signatures from a batch, by point (sorted).
+struct Prepared {
+    layer: usize,
+    points: Vec<u32>,
+    signatures: Vec<Signature>,
+}
+
+/// A decision a batch's signature leaves open: the point is recomputed
+/// exactly.
+struct Ambiguous;
+
 /// Candidates sampled to choose the order of the spheres.
 pub const ORDER_SAMPLE: usize = 64;
 
@@ -117,6 +155,14 @@ pub struct HarmonicsDescriptor<'a> {
     /// The template's signatures, one list per anchor.
     templates: Vec<Vec<Signature>>,
     threshold: f64,
+    /// Where layers are computed in batches, the batch, the current
+    /// layer's signatures, the layers computed so far in order (what a
+    /// point recomputed exactly replays), and why the batch stopped, if it
+    /// failed.
+    batch: Option<&'a dyn SphereBatch>,
+    prepared: RwLock<Option<Prepared>>,
+    done: Mutex<Vec<usize>>,
+    batch_failure: Mutex<Option<String>>,
 }
 
 impl<'a> HarmonicsDescriptor<'a> {
@@ -148,7 +194,125 @@ impl<'a> HarmonicsDescriptor<'a> {
             clean_layers: usize::MAX,
             templates,
             threshold,
+            batch: None,
+            prepared: RwLock::new(None),
+            done: Mutex::new(Vec::new()),
+            batch_failure: Mutex::new(None),
         }
+    }
+
+    /// Computes each layer's spheres for all its candidates in `batch`
+    /// (see [`SphereBatch`]); the stage keeps the same points.
+    pub fn with_batch(mut self, batch: &'a dyn SphereBatch) -> Self {
+        self.batch = Some(batch);
+        self
+    }
+
+    /// Why the batch failed, if it did (the layers from then on ran on the
+    /// CPU).
+    pub fn batch_failure(&self) -> Option<String> {
+        self.batch_failure
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// The batch's signature of `point` at `layer`, if it computed one.
+    fn prepared_signature(&self, point: u32, layer: usize) -> Option<Signature> {
+        self.batch?;
+        let prepared = self.prepared.read().unwrap_or_else(|p| p.into_inner());
+        let prepared = prepared.as_ref().filter(|p| p.layer == layer)?;
+        let i = prepared.points.binary_search(&point).ok()?;
+        Some(prepared.signatures[i])
+    }
+
+    /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
+    /// signature `given` (with its guard band) or computed here; fails
+    /// when a decision is too close to call with `given`.
+    fn update(
+        &self,
+        v: [u16; 3],
+        layer: usize,
+        state: &mut HarmonicsState,
+        given: Option<Signature>,
+    ) -> Result<(), Ambiguous> {
+        let error = match (given, self.batch) {
+            (Some(_), Some(b)) => f64::from(b.max_error()),
+            _ => 0.0,
+        };
+        let excusable = layer >= self.clean_layers;
+        let guard = self.clutter.as_ref().filter(|_| excusable);
+        // The scene's side is read once, and only if some anchor compares
+        // it: excusable spheres come outward, so one beyond an anchor's
+        // first cluttered sphere is not compared for it.
+        let compared =
+            |a: usize| state.alive & (1 << a) != 0 && !(excusable && state.excused_at[a].is_some());
+        let compares: Vec<usize> = (0..self.templates.len()).filter(|&a| compared(a)).collect();
+        let fraction = guard.map(|g| g.balls[layer].fraction(self.solid, v));
+        let ball_clean = |a: usize| match (guard, fraction) {
+            (Some(g), Some(f)) => f - g.templates[a][layer] <= g.policy.volume_tolerance,
+            _ => true,
+        };
+        let mut sig = given;
+        for a in compares {
+            // Degree 0 of the signature is the sphere's mean occupancy.
+            let clean = ball_clean(a) && {
+                let s = sig.get_or_insert_with(|| {
+                    describe_sphere(self.solid, v, &self.spheres[layer], self.transform)
+                });
+                match guard {
+                    None => true,
+                    Some(g) => {
+                        let over = ((s[0] - self.templates[a][layer][0]) as f64)
+                            - g.policy.sphere_tolerance;
+                        if error > 0.0 && over.abs() <= error {
+                            return Err(Ambiguous);
+                        }
+                        over <= 0.0
+                    }
+                }
+            };
+            if clean {
+                let s = sig.as_ref().expect("read for a clean sphere");
+                state.sum2[a] +=
+                    self.weights[layer] * signature_distance2(s, &self.templates[a][layer]);
+                state.slack2[a] += self.weights[layer] * (4.0 * error).powi(2);
+            } else {
+                state.excused_at[a] = Some(layer.min(usize::from(u16::MAX)) as u16);
+            }
+            // Compared over the `e` spheres inside the first cluttered one
+            // only: their root mean square must meet the threshold (the
+            // weights carry 1 / k). The spheres inside it still to come
+            // only add to the sum.
+            let budget = match state.excused_at[a] {
+                Some(e) => self.threshold.powi(2) * f64::from(e) / self.spheres.len() as f64,
+                None => self.threshold.powi(2),
+            };
+            let slack = state.slack2[a].sqrt();
+            if slack > 0.0 && (state.sum2[a].sqrt() - budget.sqrt()).abs() <= slack {
+                return Err(Ambiguous);
+            }
+            if state.sum2[a] > budget {
+                state.alive &= !(1 << a);
+            }
+        }
+        Ok(())
+    }
+
+    /// The state of `point`, which entered the stage matching `entered`,
+    /// over the layers computed so far, every sphere on the CPU.
+    fn replay(&self, point: u32, entered: Anchors) -> HarmonicsState {
+        let v = self.points[point as usize];
+        let mut state = self.start(point, entered);
+        let done = self.done.lock().unwrap_or_else(|p| p.into_inner()).clone();
+        for layer in done {
+            if state.alive == 0 {
+                break;
+            }
+            // Exact: nothing is ambiguous.
+            let _ = self.update(v, layer, &mut state, None);
+        }
+        state
     }
 
     /// Excuses cluttered spheres (see [`super::clutter`]); without a guard
@@ -207,8 +371,13 @@ pub struct HarmonicsState {
     /// (Layer numbers above u16 are refused by the memory budget long
     /// before: every layer has its own ball tables.)
     excused_at: [Option<u16>; MAX_ANCHORS],
-    /// Anchors still matched.
+    /// Anchors still matched, and those the point entered the stage with.
     alive: Anchors,
+    entered: Anchors,
+    /// How far, squared, the exact sum's root can lie from `sum2`'s where
+    /// a batch's signatures were summed (0 when every sphere was computed
+    /// here).
+    slack2: [f64; MAX_ANCHORS],
 }
 
 impl OnionDescriptor for HarmonicsDescriptor<'_> {
@@ -262,6 +431,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
     fn start(&self, _point: u32, anchors: Anchors) -> HarmonicsState {
         HarmonicsState {
             alive: anchors & all_anchors(self.templates.len()),
+            entered: anchors,
             ..HarmonicsState::default()
         }
     }
@@ -270,49 +440,49 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         state.alive
     }
 
-    fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
-        let excusable = layer >= self.clean_layers;
-        let v = self.points[point as usize];
-        let guard = self.clutter.as_ref().filter(|_| excusable);
-        // The scene's side is read once, and only if some anchor compares
-        // it: excusable spheres come outward, so one beyond an anchor's
-        // first cluttered sphere is not compared for it.
-        let compared =
-            |a: usize| state.alive & (1 << a) != 0 && !(excusable && state.excused_at[a].is_some());
-        let compares = (0..self.templates.len()).filter(|&a| compared(a));
-        let fraction = guard.map(|g| g.balls[layer].fraction(self.solid, v));
-        let ball_clean = |a: usize| match (guard, fraction) {
-            (Some(g), Some(f)) => f - g.templates[a][layer] <= g.policy.volume_tolerance,
-            _ => true,
+    fn prepare(&self, layer: usize, points: &[u32]) {
+        let Some(batch) = self.batch else {
+            return;
         };
-        let mut sig = None;
-        for a in compares.collect::<Vec<_>>() {
-            // Degree 0 of the signature is the sphere's mean occupancy.
-            let clean = ball_clean(a) && {
-                let s = sig.get_or_insert_with(|| {
-                    describe_sphere(self.solid, v, &self.spheres[layer], self.transform)
+        self.done
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(layer);
+        let mut prepared = self.prepared.write().unwrap_or_else(|p| p.into_inner());
+        *prepared = None;
+        let mut failure = self.batch_failure.lock().unwrap_or_else(|p| p.into_inner());
+        if failure.is_some() || points.is_empty() {
+            return;
+        }
+        let mut sorted = points.to_vec();
+        sorted.sort_unstable();
+        let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
+        match batch.signatures(&self.spheres[layer], &voxels) {
+            Ok(signatures) if signatures.len() == sorted.len() => {
+                *prepared = Some(Prepared {
+                    layer,
+                    points: sorted,
+                    signatures,
                 });
-                guard.is_none_or(|g| {
-                    ((s[0] - self.templates[a][layer][0]) as f64) <= g.policy.sphere_tolerance
-                })
-            };
-            if clean {
-                let s = sig.as_ref().expect("read for a clean sphere");
-                state.sum2[a] +=
-                    self.weights[layer] * signature_distance2(s, &self.templates[a][layer]);
-            } else {
-                state.excused_at[a] = Some(layer.min(usize::from(u16::MAX)) as u16);
             }
-            // Compared over the `e` spheres inside the first cluttered one
-            // only: their root mean square must meet the threshold (the
-            // weights carry 1 / k). The spheres inside it still to come
-            // only add to the sum.
-            let budget = match state.excused_at[a] {
-                Some(e) => self.threshold.powi(2) * f64::from(e) / self.spheres.len() as f64,
-                None => self.threshold.powi(2),
-            };
-            if state.sum2[a] > budget {
-                state.alive &= !(1 << a);
+            Ok(_) => *failure = Some("the batch returned too few signatures".into()),
+            Err(reason) => *failure = Some(reason),
+        }
+    }
+
+    fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
+        let v = self.points[point as usize];
+        match self.prepared_signature(point, layer) {
+            Some(given) => {
+                let mut trial = *state;
+                match self.update(v, layer, &mut trial, Some(given)) {
+                    Ok(()) => *state = trial,
+                    Err(Ambiguous) => *state = self.replay(point, state.entered),
+                }
+            }
+            None => {
+                // Exact: nothing is ambiguous.
+                let _ = self.update(v, layer, state, None);
             }
         }
         closest(&state.sum2, state.alive).sqrt()

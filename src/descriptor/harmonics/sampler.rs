@@ -222,19 +222,51 @@ impl SphereSampler {
         }
     }
 
+    /// Where the samples around voxel `v` start from: the voxel itself at
+    /// level 0, its centre in block coordinates (block b's centre at b) in
+    /// fixed point above.
+    pub fn origin(&self, v: [u16; 3]) -> [i32; 3] {
+        if self.level == 0 {
+            return v.map(i32::from);
+        }
+        let s = 1i64 << self.level;
+        let one = 1i64 << FIXED;
+        v.map(|c| {
+            let c = c as i64;
+            ((c >> self.level) * one + ((c & (s - 1)) * 2 - (s - 1)) * one / (2 * s)) as i32
+        })
+    }
+
+    /// The per-sample tables a kernel reads, ring by ring: at level 0 the
+    /// lower corner's offset from [`Self::origin`] in voxels and its
+    /// fraction; above, the offset in fixed point with 16 fractional bits
+    /// (fractions unused). The fourth lane pads to 16 bytes.
+    pub fn sample_tables(&self) -> (Vec<[i32; 4]>, Vec<[f32; 4]>) {
+        let n = RINGS * SECTORS;
+        if self.level > 0 {
+            let offsets = (0..n)
+                .map(|s| [self.reach[0][s], self.reach[1][s], self.reach[2][s], 0])
+                .collect();
+            return (offsets, vec![[0.0; 4]; n]);
+        }
+        (
+            (0..n)
+                .map(|s| [self.off[0][s], self.off[1][s], self.off[2][s], 0])
+                .collect(),
+            (0..n)
+                .map(|s| [self.frac[0][s], self.frac[1][s], self.frac[2][s], 0.0])
+                .collect(),
+        )
+    }
+
     /// Level > 0: trilinear interpolation of block occupancy.
     fn sample_blocks(&self, solid: &Solid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
         let level = solid.level(self.level, Backend::Serial);
-        let s = 1i64 << self.level;
         let dims = level.dims();
         let occ = level.occupancy();
         let (row, plane) = (dims[0], dims[0] * dims[1]);
-        // The voxel centre in block coordinates (block b's centre at b), fixed point.
         let one = 1i64 << FIXED;
-        let centre = v.map(|c| {
-            let c = c as i64;
-            ((c >> self.level) * one + ((c & (s - 1)) * 2 - (s - 1)) * one / (2 * s)) as i32
-        });
+        let centre = self.origin(v);
         let limit = dims.map(|d| d as u32 - 1);
         let mask = (one - 1) as i32;
         let scale = 1.0 / one as f32;

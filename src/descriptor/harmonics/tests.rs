@@ -511,3 +511,127 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
         );
     }
 }
+
+/// A batch that returns the CPU's signatures moved by up to `noise` per
+/// degree (a fixed pseudo-random pattern per point and layer) and claims
+/// `bound` as its error.
+struct NoisyBatch<'a> {
+    solid: &'a Solid,
+    transform: &'a SphericalTransform,
+    noise: f32,
+    bound: f32,
+}
+
+impl SphereBatch for NoisyBatch<'_> {
+    fn signatures(
+        &self,
+        sampler: &SphereSampler,
+        voxels: &[[u16; 3]],
+    ) -> std::result::Result<Vec<Signature>, String> {
+        Ok(voxels
+            .iter()
+            .map(|&v| {
+                let mut s = describe_sphere(self.solid, v, sampler, self.transform);
+                let mut h = (v[0] as u64) << 40
+                    ^ (v[1] as u64) << 20
+                    ^ v[2] as u64
+                    ^ sampler.radius().to_bits();
+                for x in &mut s {
+                    h = h
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    let unit = (h >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
+                    *x += unit * self.noise;
+                }
+                s
+            })
+            .collect())
+    }
+
+    fn max_error(&self) -> f32 {
+        self.bound
+    }
+}
+
+#[test]
+fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
+    use crate::cascade::run_cascade;
+    use crate::descriptor::VolumeDescriptor;
+    let t = SphericalTransform::new();
+    let voxel = 0.05;
+    let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
+    let (tsolid, tv, solid, points) = cluttered_lumpy(voxel, Vec3::new(0.0, 0.6, 0.0));
+    let volume = VolumeDescriptor::new(
+        &solid,
+        &points,
+        &radii,
+        vec![VolumeDescriptor::describe(
+            &tsolid,
+            tv,
+            &radii,
+            Backend::Serial,
+        )],
+        1.0,
+        Backend::Serial,
+    );
+    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Backend::Serial);
+    let stage = |threshold: f64| {
+        HarmonicsDescriptor::new(
+            &solid,
+            &points,
+            &t,
+            &radii,
+            vec![template.clone()],
+            threshold,
+            Backend::Serial,
+        )
+        .with_clutter(ClutterGuard {
+            policy: ClutterPolicy::DEFAULT,
+            balls: volume.balls(),
+            templates: volume.templates(),
+        })
+    };
+    let candidates: Vec<u32> = (0..points.len() as u32).collect();
+    let cascade = |h: &HarmonicsDescriptor| {
+        run_cascade(&[h], candidates.clone(), 1, Backend::Parallel, &mut ())
+            .unwrap()
+            .0
+    };
+    // The median distance as threshold: many points sit near it.
+    let all = cascade(&stage(f64::INFINITY));
+    let mut distances: Vec<f64> = all.iter().map(|s| s.distance).collect();
+    distances.sort_by(f64::total_cmp);
+    let threshold = distances[distances.len() / 2];
+    let exact = cascade(&stage(threshold));
+    // Noise of 0.01 per degree: far above a GPU's, so the band is crossed
+    // often.
+    let noise = 0.01;
+    let noisy = |bound: f32| {
+        let batch = NoisyBatch {
+            solid: &solid,
+            transform: &t,
+            noise,
+            bound,
+        };
+        let h = stage(threshold).with_batch(&batch);
+        let survivors = cascade(&h);
+        assert_eq!(h.batch_failure(), None);
+        survivors
+    };
+    let guarded = noisy(noise);
+    assert_eq!(
+        guarded.iter().map(|s| s.point).collect::<Vec<_>>(),
+        exact.iter().map(|s| s.point).collect::<Vec<_>>()
+    );
+    for (g, e) in guarded.iter().zip(&exact) {
+        // Sum of per-sphere bounds: sqrt(sum_j w_j) * 4 * noise.
+        let weights: f64 = layer_weights(&radii, voxel).iter().sum();
+        assert!((g.distance - e.distance).abs() <= weights.sqrt() * 4.0 * noise as f64);
+    }
+    // The same batch trusted blindly keeps other points: the band matters.
+    let blind = noisy(0.0);
+    assert_ne!(
+        blind.iter().map(|s| s.point).collect::<Vec<_>>(),
+        exact.iter().map(|s| s.point).collect::<Vec<_>>()
+    );
+}

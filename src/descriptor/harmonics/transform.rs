@@ -129,6 +129,35 @@ impl SphericalTransform {
     }
 }
 
+/// The transform's tables unfolded, for a kernel that sums every ring and
+/// sector plainly (the GPU's): `fourier[k * DEGREES + m]` = (cos m phi_k,
+/// -sin m phi_k) for every sector, and `legendre[(m * DEGREES + l) * RINGS +
+/// j]` = the quadrature weight times the normalized Legendre value for every
+/// ring (0 for l < m). Computed in f64 like [`SphericalTransform`]'s.
+pub fn unfolded_tables() -> (Vec<[f32; 2]>, Vec<f32>) {
+    let mut fourier = Vec::with_capacity(SECTORS * DEGREES);
+    for k in 0..SECTORS {
+        for m in 0..DEGREES {
+            let (s, c) = (m as f64 * phi(k)).sin_cos();
+            fourier.push([c as f32, -s as f32]);
+        }
+    }
+    let weights = fejer_weights();
+    let rings: Vec<Vec<Vec<f64>>> = (0..RINGS)
+        .map(|j| normalized_legendre(theta(j).cos()))
+        .collect();
+    let mut legendre = vec![0.0f32; DEGREES * DEGREES * RINGS];
+    for m in 0..DEGREES {
+        for l in m..DEGREES {
+            for j in 0..RINGS {
+                let w = weights[j] * (2.0 * PI / SECTORS as f64);
+                legendre[(m * DEGREES + l) * RINGS + j] = (w * rings[j][l][m]) as f32;
+            }
+        }
+    }
+    (fourier, legendre)
+}
+
 pub(super) fn theta(j: usize) -> f64 {
     PI * (2 * j + 1) as f64 / (4 * BANDWIDTH) as f64
 }

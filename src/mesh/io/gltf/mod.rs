@@ -309,7 +309,7 @@ fn check_size(vertices: usize, triangles: usize, max_bytes: u64) -> Result<()> {
 fn assemble(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, String> {
     Ok(match mode {
         Mode::Triangles => {
-            if idx.len() % 3 != 0 {
+            if !idx.len().is_multiple_of(3) {
                 return Err(format!(
                     "{} triangle indices is not a multiple of 3",
                     idx.len()

@@ -1,0 +1,93 @@
+//! The kernels against the CPU code: WGSL validated with no adapter, then
+//! run on whatever adapter the machine has (lavapipe in CI).
+
+use super::*;
+use crate::descriptor::SphericalTransform;
+use crate::descriptor::harmonics::{DEGREES, SphereBatch, SphereSampler, describe_sphere};
+use crate::exec::Backend;
+use crate::math::Vec3;
+use crate::mesh::shapes::{cuboid, torus, uv_sphere};
+use crate::voxel::{GridSpec, Solid, skin, voxelize};
+
+#[test]
+fn every_wgsl_source_is_valid() {
+    for (name, source) in SHADERS {
+        let module = naga::front::wgsl::parse_str(source)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    }
+}
+
+/// A GPU for the tests: any adapter, lavapipe included. A machine without
+/// one fails here, with what to install, unless FAST_REJECT_SKIP_GPU=1
+/// says to skip the GPU tests (never in CI).
+pub(crate) fn test_gpu() -> Option<Gpu> {
+    if std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
+        return None;
+    }
+    match Gpu::request(AdapterChoice::Any) {
+        Ok(Some(gpu)) => Some(gpu),
+        Ok(None) => panic!(
+            "no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers, for lavapipe) \
+             or set FAST_REJECT_SKIP_GPU=1"
+        ),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// A shape with flat faces, curved ones and a hole, voxelized.
+fn lumpy_solid(voxel: f64) -> Solid {
+    let mut m = uv_sphere(Vec3::ZERO, 0.6, 48, 96);
+    m.append(&cuboid(
+        Vec3::new(0.1, -0.15, -0.15),
+        Vec3::new(1.0, 0.15, 0.15),
+    ));
+    m.append(&torus(Vec3::new(-0.2, 0.5, 0.3), 0.35, 0.1, 48, 16));
+    let spec = GridSpec::around(m.bounds(), voxel).unwrap();
+    Solid::new(voxelize(&m, &spec, Backend::Serial))
+}
+
+#[test]
+fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
+    let Some(gpu) = test_gpu() else { return };
+    let solid = lumpy_solid(0.02);
+    let t = SphericalTransform::new();
+    let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+        .iter_ones()
+        .step_by(97)
+        .take(300)
+        .collect();
+    let spheres = GpuSpheres::new(&gpu, &solid);
+    let mut levels = Vec::new();
+    // Radii in voxels from a few (the bit grid) to past the shape (pyramid
+    // levels, and samples outside the grid).
+    for radius in [3.5, 12.0, 25.0, 47.0, 90.0] {
+        let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
+        levels.push(sampler.level());
+        let got = spheres.signatures(&sampler, &voxels).unwrap();
+        let mut worst = 0.0f32;
+        for (v, g) in voxels.iter().zip(&got) {
+            let want = describe_sphere(&solid, *v, &sampler, &t);
+            for l in 0..DEGREES {
+                worst = worst.max((g[l] - want[l]).abs());
+            }
+        }
+        eprintln!("radius {radius}: worst {worst:e}");
+        // A quarter of the bound the guard band assumes.
+        assert!(
+            worst <= spheres.max_error() / 4.0,
+            "radius {radius}: {worst} on {}",
+            gpu.description()
+        );
+    }
+    assert!(
+        levels.contains(&0) && levels.iter().any(|&l| l >= 2),
+        "{levels:?}"
+    );
+}

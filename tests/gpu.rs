@@ -1,0 +1,61 @@
+//! The GPU backend against the CPU on shared scenes: the same candidates
+//! at every layer and the same instances (lavapipe in CI; any adapter).
+#![cfg(feature = "gpu")]
+
+mod common;
+
+use fast_reject::gpu::{AdapterChoice, Gpu};
+use fast_reject::search::{MatchOptions, MatchReport, search, search_on_gpu};
+use fast_reject::{Scene, SceneOptions};
+
+/// Any adapter, lavapipe included; a machine with none fails, saying what
+/// to install, unless FAST_REJECT_SKIP_GPU=1 (never in CI).
+fn gpu() -> Option<Gpu> {
+    if std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
+        return None;
+    }
+    Some(
+        Gpu::request(AdapterChoice::Any)
+            .expect("a GPU device")
+            .expect("no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) or set FAST_REJECT_SKIP_GPU=1"),
+    )
+}
+
+fn assert_same_search(name: &str, gpu: &Gpu) {
+    let scene: Scene = common::scene(name, &SceneOptions::DEFAULT);
+    let template = common::template(name, false);
+    let options = MatchOptions::DEFAULT;
+    let cpu: MatchReport = search(&scene, &template, &options, &mut ()).unwrap();
+    let on_gpu = search_on_gpu(&scene, &template, &options, &mut (), gpu).unwrap();
+    let info = on_gpu.gpu.as_ref().expect("the report names the GPU");
+    assert_eq!(info.fallback, None, "{name}");
+    let counts = |r: &MatchReport| -> Vec<(&str, usize, usize, usize)> {
+        r.stages
+            .iter()
+            .map(|s| (s.descriptor, s.layer, s.candidates, s.survivors))
+            .collect()
+    };
+    assert_eq!(counts(&cpu), counts(&on_gpu), "{name}");
+    assert!(counts(&cpu).iter().any(|c| c.0 == "harmonics" && c.2 > 100));
+    assert_eq!(cpu.instances.len(), on_gpu.instances.len(), "{name}");
+    for (a, b) in cpu.instances.iter().zip(&on_gpu.instances) {
+        // Same survivors, so the same blobs, placements and poses; the
+        // final distance differs by f32 rounding only.
+        assert_eq!(a.position, b.position, "{name}");
+        assert_eq!(a.score, b.score, "{name}");
+        assert_eq!(a.pose, b.pose, "{name}");
+        assert!((a.distance - b.distance).abs() < 1e-4, "{name}");
+    }
+    common::assert_finds_everything(name, false, &on_gpu);
+}
+
+#[test]
+fn the_gpu_finds_what_the_cpu_finds() {
+    let Some(gpu) = gpu() else { return };
+    // Plain copies among other shapes, and copies with clutter beside them
+    // (the guard's excused spheres).
+    for name in ["zoo-bunny", "cluttered-bunny"] {
+        assert_same_search(name, &gpu);
+    }
+}
