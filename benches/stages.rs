@@ -11,6 +11,9 @@
 //! descriptor instead of volume+harmonics, with the cost per candidate of
 //! every layer (how it grows with the radius);
 //! `FAST_REJECT_BENCH_CURVATURE_SPACING=0.5` adds its sampled first pass.
+//! `FAST_REJECT_BENCH_BACKEND=gpu` runs the volume and harmonics layers on
+//! a GPU (any adapter, lavapipe included), with the cost per candidate of
+//! every layer: how the GPU's time grows with the candidates.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -94,15 +97,17 @@ fn main() {
     if let Ok(spacing) = std::env::var("FAST_REJECT_BENCH_CURVATURE_SPACING") {
         options.curvature_spacing = spacing.parse().expect("a number");
     }
+    let gpu = gpu_from_env();
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
     println!(
-        "descriptor: {}, curvature spacing: {}, threads: {}, runs per scene: {runs} (fastest shown)\n",
+        "descriptor: {}, curvature spacing: {}, threads: {}, layers on: {}, runs per scene: {runs} (fastest shown)\n",
         options.descriptor,
         options.curvature_spacing,
-        rayon::current_num_threads()
+        rayon::current_num_threads(),
+        gpu.as_ref().map_or("the CPU".into(), describe),
     );
     let mut summary = Vec::new();
     for (name, select) in SCENES {
@@ -111,7 +116,7 @@ fn main() {
         }
         PEAK.store(HELD.load(Ordering::Relaxed), Ordering::Relaxed);
         let best = (0..runs)
-            .map(|_| run(name, select, &options))
+            .map(|_| run(name, select, &options, gpu.as_ref()))
             .min_by(|a, b| a.timings.total().total_cmp(&b.timings.total()))
             .unwrap();
         let peak_mib = PEAK.load(Ordering::Relaxed) as f64 / (1024.0 * 1024.0);
@@ -126,7 +131,7 @@ fn main() {
     }
     let curvature = options.descriptor == DescriptorKind::Curvature;
     stage_table(&summary, curvature);
-    if curvature {
+    if curvature || gpu.is_some() {
         per_candidate_table(&summary);
     }
 }
@@ -199,7 +204,7 @@ fn per_candidate_table(summary: &[(&str, Measured)]) {
     }
 }
 
-fn run(name: &str, select: bool, options: &MatchOptions) -> MatchReport {
+fn run(name: &str, select: bool, options: &MatchOptions, gpu: Option<&Gpu>) -> MatchReport {
     let start = std::time::Instant::now();
     let scene_mesh = load(
         &std::fs::read(common::scene_dir(name).join("scene.glb")).unwrap(),
@@ -209,9 +214,55 @@ fn run(name: &str, select: bool, options: &MatchOptions) -> MatchReport {
     let source = common::template(name, select);
     let load_ms = start.elapsed().as_secs_f64() * 1e3;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
-    let mut report = search(&scene, &source, options, &mut ()).unwrap();
+    let mut report = search_on(&scene, &source, options, gpu);
     report.timings.load = load_ms;
     report
+}
+
+/// The GPU `FAST_REJECT_BENCH_BACKEND` asks for (cpu or gpu; any
+/// adapter).
+#[cfg(feature = "gpu")]
+type Gpu = fast_reject::gpu::Gpu;
+#[cfg(not(feature = "gpu"))]
+type Gpu = std::convert::Infallible;
+
+fn gpu_from_env() -> Option<Gpu> {
+    match std::env::var("FAST_REJECT_BENCH_BACKEND").as_deref() {
+        #[cfg(feature = "gpu")]
+        Ok("gpu") => Some(
+            Gpu::request(fast_reject::gpu::AdapterChoice::Any)
+                .expect("a GPU device")
+                .expect("FAST_REJECT_BENCH_BACKEND=gpu: no GPU adapter"),
+        ),
+        Ok("cpu") | Err(_) => None,
+        Ok(other) => panic!("FAST_REJECT_BENCH_BACKEND={other}: cpu, or gpu with the gpu feature"),
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn describe(gpu: &Gpu) -> String {
+    gpu.description()
+}
+
+#[cfg(not(feature = "gpu"))]
+fn describe(gpu: &Gpu) -> String {
+    match *gpu {}
+}
+
+fn search_on(
+    scene: &Scene,
+    source: &fast_reject::TemplateSource,
+    options: &MatchOptions,
+    gpu: Option<&Gpu>,
+) -> MatchReport {
+    match gpu {
+        #[cfg(feature = "gpu")]
+        Some(gpu) => fast_reject::search::search_on_gpu(scene, source, options, &mut (), gpu),
+        #[cfg(not(feature = "gpu"))]
+        Some(never) => match *never {},
+        None => search(scene, source, options, &mut ()),
+    }
+    .unwrap()
 }
 
 fn print_scene(name: &str, r: &MatchReport) {

@@ -124,6 +124,8 @@ export interface MatchReport {
   grid: { resolution: number; voxel_size: number; skin_voxels: number; windows: number } | null;
   /** The welded surface (curvature only, else null). */
   surface: { vertices: number; triangles: number } | null;
+  /** The GPU the layers ran on, and why some went back to the CPU if any did; null when the search ran on the CPU only (always, for now, in the package). */
+  gpu: { adapter: string; fallback: string | null } | null;
   timings_ms: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };
   /** x, y, z of every instance, best first. */
   instancePositions: Float64Array;

@@ -8,6 +8,7 @@
 //! needs from one layer to the next in its own `State`: a running sum for the
 //! voxel descriptors, a growing neighbourhood for the curvature one.
 
+pub(crate) mod batch;
 pub mod clutter;
 pub mod curvature;
 pub mod harmonics;

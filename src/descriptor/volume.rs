@@ -12,6 +12,7 @@
 //! are read the same way, so the small difference to an exact voxel count
 //! (tested with the voxel balls) cancels out of the comparison.
 
+use super::batch::PreparedLayer;
 use super::{ClutterPolicy, OnionDescriptor};
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
@@ -22,6 +23,15 @@ use crate::voxel::{Ball, Solid, level_for_radius};
 /// from an exact voxel count by 0.003 on average (0.016 at worst) at 4.5-5.5
 /// blocks, against a threshold of 0.12 on the sum over six layers.
 pub const BLOCKS_PER_RADIUS: f64 = 4.5;
+
+/// Counts many points' balls at once (on a GPU): the same integers as
+/// [`Ball::count`], so a stage given a batch keeps exactly the points it
+/// keeps without one.
+pub trait BallBatch: Sync {
+    /// The solid voxels in `ball` around each of `voxels`, in order, or why
+    /// they could not be counted (the stage then counts them itself).
+    fn counts(&self, ball: &Ball, voxels: &[[u16; 3]]) -> Result<Vec<u64>, String>;
+}
 
 /// The volume stage of the cascade: rejects a point once
 /// `sum_i |CF_T(r_i) - CF(v, r_i)|` passes the threshold (Eq. 4) for every
@@ -37,6 +47,10 @@ pub struct VolumeDescriptor<'a> {
     clutter: ClutterPolicy,
     /// Leading layers that always count (see [`super::clutter`]).
     clean_layers: usize,
+    /// Where layers are counted in batches, the batch and the current
+    /// layer's counts.
+    batch: Option<&'a dyn BallBatch>,
+    prepared: PreparedLayer<u64>,
 }
 
 /// The running state of a point in the volume stage, per anchor.
@@ -85,7 +99,22 @@ impl<'a> VolumeDescriptor<'a> {
             threshold,
             clutter: ClutterPolicy::OFF,
             clean_layers: usize::MAX,
+            batch: None,
+            prepared: PreparedLayer::new(),
         }
+    }
+
+    /// Counts each layer's balls for all its candidates in `batch`; the
+    /// stage keeps the same points.
+    pub fn with_batch(mut self, batch: &'a dyn BallBatch) -> Self {
+        self.batch = Some(batch);
+        self
+    }
+
+    /// Why the batch failed, if it did (the layers from then on were
+    /// counted on the CPU).
+    pub fn batch_failure(&self) -> Option<String> {
+        self.prepared.failure()
     }
 
     /// Excuses cluttered layers as `policy` says (see
@@ -186,10 +215,24 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         state.alive
     }
 
+    fn prepare(&self, layer: usize, points: &[u32]) {
+        let Some(batch) = self.batch else {
+            return;
+        };
+        self.prepared.fill(layer, points, |sorted| {
+            let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
+            batch.counts(&self.balls[layer], &voxels)
+        });
+    }
+
     fn extend(&self, point: u32, layer: usize, state: &mut VolumeState) -> f64 {
         let compared = state.alive & !state.excused;
         if compared != 0 {
-            let f = self.balls[layer].fraction(self.solid, self.points[point as usize]);
+            let (ball, v) = (&self.balls[layer], self.points[point as usize]);
+            let f = match self.batch.and(self.prepared.get(point, layer)) {
+                Some(inside) => inside as f64 / ball.covered(v) as f64,
+                None => ball.fraction(self.solid, v),
+            };
             for (a, template) in self.templates.iter().enumerate() {
                 let bit = 1 << a;
                 if compared & bit == 0 {

@@ -32,8 +32,9 @@ struct Params {
 // (cos m phi_k, -sin m phi_k) at [k * 16 + m].
 @group(0) @binding(5) var<storage, read> fourier: array<vec2<f32>>;
 // Quadrature weight times the normalized Legendre value at [(m * 16 + l) * 64 + j].
-@group(0) @binding(6) var<storage, read_write> signatures: array<f32>;
-@group(0) @binding(7) var<storage, read> legendre: array<f32>;
+@group(0) @binding(6) var<storage, read> legendre: array<f32>;
+// Per candidate, the 16 degrees' energies.
+@group(0) @binding(7) var<storage, read_write> signatures: array<f32>;
 
 const RINGS: u32 = 64u;
 const SECTORS: u32 = 64u;

@@ -13,8 +13,10 @@
 //! the CPU.
 
 mod harmonics;
+mod solid;
+mod volume;
 
-pub use harmonics::GpuSpheres;
+pub use solid::GpuSolid;
 
 use std::sync::{Arc, Mutex};
 
@@ -23,7 +25,10 @@ use crate::error::{Error, Result};
 /// Every kernel's WGSL, by file name (validated by a test with no
 /// adapter).
 #[cfg(test)]
-const SHADERS: &[(&str, &str)] = &[("harmonics.wgsl", harmonics::SHADER)];
+const SHADERS: &[(&str, &str)] = &[
+    ("harmonics.wgsl", harmonics::SHADER),
+    ("volume.wgsl", volume::SHADER),
+];
 
 /// Which adapters [`Gpu::request`] accepts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,6 +46,7 @@ pub struct Gpu {
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     spheres: wgpu::ComputePipeline,
+    balls: wgpu::ComputePipeline,
     fourier: wgpu::Buffer,
     legendre: wgpu::Buffer,
     /// Errors the device reported outside any call's own checks, and
@@ -100,18 +106,22 @@ impl Gpu {
                 .unwrap_or_else(|p| p.into_inner())
                 .push(format!("the GPU device was lost: {message}"));
         });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("harmonics"),
-            source: wgpu::ShaderSource::Wgsl(harmonics::SHADER.into()),
-        });
-        let spheres = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("harmonics"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline = |label: &str, source: &str| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let spheres = pipeline("harmonics", harmonics::SHADER);
+        let balls = pipeline("volume", volume::SHADER);
         let (fourier, legendre) = crate::descriptor::harmonics::unfolded_tables();
         let gpu = Gpu {
             fourier: storage(&device, "fourier", bytemuck::cast_slice(&fourier)),
@@ -120,6 +130,7 @@ impl Gpu {
             queue,
             info,
             spheres,
+            balls,
             failures,
         };
         gpu.check("building the GPU pipelines")?;
@@ -152,6 +163,84 @@ impl Gpu {
         let all = failures.join("; ");
         failures.clear();
         Err(unavailable(format!("{doing}: {all}")))
+    }
+}
+
+/// One kernel run: the uniform `params` at binding 0, `inputs` at the
+/// next bindings in order, and an output buffer of `output_bytes` after
+/// them, which is read back.
+struct Dispatch<'a> {
+    pipeline: &'a wgpu::ComputePipeline,
+    params: &'a [u8],
+    inputs: &'a [&'a wgpu::Buffer],
+    output_bytes: u64,
+    workgroups: [u32; 2],
+}
+
+impl Gpu {
+    /// Runs `d` and returns its output's bytes. Blocks until the device is
+    /// done; every error the device reports on the way fails it.
+    fn run_kernel(&self, d: Dispatch) -> std::result::Result<Vec<u8>, String> {
+        use wgpu::util::DeviceExt;
+        let device = &self.device;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: d.params,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("output"),
+            size: d.output_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read back"),
+            size: d.output_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let resources = std::iter::once(&uniform)
+            .chain(d.inputs.iter().copied())
+            .chain(std::iter::once(&output));
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .enumerate()
+            .map(|(i, buffer)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &d.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(d.pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(d.workgroups[0], d.workgroups[1], 1);
+        }
+        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, d.output_bytes);
+        self.queue.submit([encoder.finish()]);
+        let mapped: Arc<Mutex<Option<std::result::Result<(), wgpu::BufferAsyncError>>>> =
+            Arc::default();
+        let slot = mapped.clone();
+        readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| e.to_string())?;
+        self.check("running a kernel").map_err(|e| e.to_string())?;
+        match mapped.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            Some(Ok(())) => {}
+            Some(Err(e)) => return Err(format!("reading a kernel's output back: {e}")),
+            None => return Err("the GPU never finished a kernel".into()),
+        }
+        let view = readback.get_mapped_range(..).map_err(|e| e.to_string())?;
+        Ok(view.to_vec())
     }
 }
 

@@ -63,7 +63,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
         .step_by(97)
         .take(300)
         .collect();
-    let spheres = GpuSpheres::new(&gpu, &solid);
+    let spheres = GpuSolid::new(&gpu, &solid);
     let mut levels = Vec::new();
     // Radii in voxels from a few (the bit grid) to past the shape (pyramid
     // levels, and samples outside the grid).
@@ -88,6 +88,37 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
     }
     assert!(
         levels.contains(&0) && levels.iter().any(|&l| l >= 2),
+        "{levels:?}"
+    );
+}
+
+#[test]
+fn gpu_ball_counts_equal_the_cpus() {
+    use crate::descriptor::volume::{BLOCKS_PER_RADIUS, BallBatch};
+    use crate::voxel::{Ball, level_for_radius};
+    let Some(gpu) = test_gpu() else { return };
+    let solid = lumpy_solid(0.02);
+    let dims = solid.bits().dims().map(|d| d as u16 - 1);
+    // Skin voxels, and the grid's corners and an edge's middle, where the
+    // balls are clipped on every side.
+    let mut voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+        .iter_ones()
+        .step_by(13)
+        .collect();
+    voxels.extend([[0, 0, 0], dims, [dims[0] / 2, 0, dims[2]], [0, dims[1], 1]]);
+    let on_gpu = GpuSolid::new(&gpu, &solid);
+    let mut levels = Vec::new();
+    for radius in [2.5, 7.0, 12.0, 30.0, 61.0] {
+        let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
+        levels.push(level);
+        let ball = Ball::build(radius, level, Backend::Serial).bind(&solid, Backend::Serial);
+        let got = on_gpu.counts(&ball, &voxels).unwrap();
+        let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
+        assert_eq!(got, want, "radius {radius} (level {level})");
+        assert!(want.iter().any(|&n| n > 0));
+    }
+    assert!(
+        levels.contains(&0) && levels.iter().any(|&l| l >= 3),
         "{levels:?}"
     );
 }

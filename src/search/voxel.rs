@@ -362,6 +362,11 @@ impl PartSearch<'_> {
                 self.lattice.resolution
             )
         })?;
+        // The solid on the GPU, uploaded as its layers need it.
+        #[cfg(feature = "gpu")]
+        let on_gpu = self
+            .gpu
+            .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid()));
         let volume = VolumeDescriptor::with_balls(
             voxels.solid(),
             voxels.skin(),
@@ -375,9 +380,10 @@ impl PartSearch<'_> {
         )
         .with_clutter(options.clutter);
         #[cfg(feature = "gpu")]
-        let spheres = self
-            .gpu
-            .map(|g| crate::gpu::GpuSpheres::new(g, voxels.solid()));
+        let volume = match &on_gpu {
+            Some(s) => volume.with_batch(s),
+            None => volume,
+        };
         let harmonics = self.template_harmonics.as_ref().map(|signatures| {
             let h = HarmonicsDescriptor::new(
                 voxels.solid(),
@@ -394,7 +400,7 @@ impl PartSearch<'_> {
                 templates: volume.templates(),
             });
             #[cfg(feature = "gpu")]
-            let h = match &spheres {
+            let h = match &on_gpu {
                 Some(s) => h.with_batch(s),
                 None => h,
             };
@@ -414,7 +420,10 @@ impl PartSearch<'_> {
             backend,
             observer,
         )?;
-        if let Some(reason) = harmonics.as_ref().and_then(|h| h.batch_failure()) {
+        let failure = volume
+            .batch_failure()
+            .or_else(|| harmonics.as_ref().and_then(|h| h.batch_failure()));
+        if let Some(reason) = failure {
             found.gpu_fallback.get_or_insert(reason);
         }
         let t2 = now_ms();

@@ -297,6 +297,37 @@ impl Ball {
         }
     }
 
+    /// The voxels the ball around voxel `v` covers (its phase's blocks
+    /// times their size): what [`Ball::count`]'s solid voxels are divided
+    /// by.
+    pub fn covered(&self, v: [u16; 3]) -> u64 {
+        if self.level == 0 {
+            return self.phases[0].voxels;
+        }
+        self.phase_at(v).0.voxels
+    }
+
+    /// The runs as a kernel reads them: (dy, dz, x0, x1) relative to the
+    /// block holding the centre, phase after phase, and where each phase's
+    /// runs start (one more entry than phases). A voxel's phase is its
+    /// position in its block, x fastest.
+    pub fn run_tables(&self) -> (Vec<[i32; 4]>, Vec<u32>) {
+        let mut runs = Vec::new();
+        let mut starts = vec![0u32];
+        for phase in &self.phases {
+            runs.extend(phase.spans.iter().map(|sp| {
+                [
+                    i32::from(sp.dy),
+                    i32::from(sp.dz),
+                    i32::from(sp.x0),
+                    i32::from(sp.x1),
+                ]
+            }));
+            starts.push(runs.len() as u32);
+        }
+        (runs, starts)
+    }
+
     /// The solid fraction of the ball around voxel `v` (Eq. 3).
     pub fn fraction(&self, solid: &Solid, v: [u16; 3]) -> f64 {
         let (inside, all) = self.count(solid, v);

@@ -42,7 +42,9 @@ mod transform;
 pub use sampler::{BLOCKS_PER_RADIUS, SphereSampler};
 pub use transform::{SphericalTransform, unfolded_tables};
 
-use std::sync::{Mutex, RwLock};
+use std::sync::Mutex;
+
+use super::batch::PreparedLayer;
 
 use super::volume::closest;
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
@@ -119,13 +121,6 @@ pub trait SphereBatch: Sync {
     fn max_error(&self) -> f32;
 }
 
-/// One layer's signatures from a batch, by point (sorted).
-struct Prepared {
-    layer: usize,
-    points: Vec<u32>,
-    signatures: Vec<Signature>,
-}
-
 /// A decision a batch's signature leaves open: the point is recomputed
 /// exactly.
 struct Ambiguous;
@@ -156,13 +151,11 @@ pub struct HarmonicsDescriptor<'a> {
     templates: Vec<Vec<Signature>>,
     threshold: f64,
     /// Where layers are computed in batches, the batch, the current
-    /// layer's signatures, the layers computed so far in order (what a
-    /// point recomputed exactly replays), and why the batch stopped, if it
-    /// failed.
+    /// layer's signatures, and the layers computed so far in order (what a
+    /// point recomputed exactly replays).
     batch: Option<&'a dyn SphereBatch>,
-    prepared: RwLock<Option<Prepared>>,
+    prepared: PreparedLayer<Signature>,
     done: Mutex<Vec<usize>>,
-    batch_failure: Mutex<Option<String>>,
 }
 
 impl<'a> HarmonicsDescriptor<'a> {
@@ -195,9 +188,8 @@ impl<'a> HarmonicsDescriptor<'a> {
             templates,
             threshold,
             batch: None,
-            prepared: RwLock::new(None),
+            prepared: PreparedLayer::new(),
             done: Mutex::new(Vec::new()),
-            batch_failure: Mutex::new(None),
         }
     }
 
@@ -211,19 +203,7 @@ impl<'a> HarmonicsDescriptor<'a> {
     /// Why the batch failed, if it did (the layers from then on ran on the
     /// CPU).
     pub fn batch_failure(&self) -> Option<String> {
-        self.batch_failure
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .clone()
-    }
-
-    /// The batch's signature of `point` at `layer`, if it computed one.
-    fn prepared_signature(&self, point: u32, layer: usize) -> Option<Signature> {
-        self.batch?;
-        let prepared = self.prepared.read().unwrap_or_else(|p| p.into_inner());
-        let prepared = prepared.as_ref().filter(|p| p.layer == layer)?;
-        let i = prepared.points.binary_search(&point).ok()?;
-        Some(prepared.signatures[i])
+        self.prepared.failure()
     }
 
     /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
@@ -448,31 +428,15 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .push(layer);
-        let mut prepared = self.prepared.write().unwrap_or_else(|p| p.into_inner());
-        *prepared = None;
-        let mut failure = self.batch_failure.lock().unwrap_or_else(|p| p.into_inner());
-        if failure.is_some() || points.is_empty() {
-            return;
-        }
-        let mut sorted = points.to_vec();
-        sorted.sort_unstable();
-        let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
-        match batch.signatures(&self.spheres[layer], &voxels) {
-            Ok(signatures) if signatures.len() == sorted.len() => {
-                *prepared = Some(Prepared {
-                    layer,
-                    points: sorted,
-                    signatures,
-                });
-            }
-            Ok(_) => *failure = Some("the batch returned too few signatures".into()),
-            Err(reason) => *failure = Some(reason),
-        }
+        self.prepared.fill(layer, points, |sorted| {
+            let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
+            batch.signatures(&self.spheres[layer], &voxels)
+        });
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
         let v = self.points[point as usize];
-        match self.prepared_signature(point, layer) {
+        match self.batch.and(self.prepared.get(point, layer)) {
             Some(given) => {
                 let mut trial = *state;
                 match self.update(v, layer, &mut trial, Some(given)) {
