@@ -24,8 +24,8 @@ use crate::voxel::{Ball, Solid, level_for_radius};
 /// blocks, against a threshold of 0.12 on the sum over six layers.
 pub const BLOCKS_PER_RADIUS: f64 = 4.5;
 
-/// Counts many points' balls at once (on a GPU): the same integers as
-/// [`Ball::count`], so a stage given a batch keeps exactly the points it
+/// Counts many points' balls at once (on a GPU): the same integers as the
+/// stage's own counts, so a stage given a batch keeps exactly the points it
 /// keeps without one.
 pub trait BallBatch: Sync {
     /// The solid voxels in `ball` around each of `voxels`, in order, or why
