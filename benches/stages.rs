@@ -221,14 +221,14 @@ fn run(name: &str, select: bool, options: &MatchOptions, gpu: Option<&Gpu>) -> M
 
 /// The GPU `FAST_REJECT_BENCH_BACKEND` asks for (cpu or gpu; any
 /// adapter).
-#[cfg(feature = "gpu")]
+#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
 type Gpu = fast_reject::gpu::Gpu;
-#[cfg(not(feature = "gpu"))]
+#[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
 type Gpu = std::convert::Infallible;
 
 fn gpu_from_env() -> Option<Gpu> {
     match std::env::var("FAST_REJECT_BENCH_BACKEND").as_deref() {
-        #[cfg(feature = "gpu")]
+        #[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
         Ok("gpu") => Some(
             Gpu::request(fast_reject::gpu::AdapterChoice::Any)
                 .expect("a GPU device")
@@ -239,12 +239,12 @@ fn gpu_from_env() -> Option<Gpu> {
     }
 }
 
-#[cfg(feature = "gpu")]
+#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
 fn describe(gpu: &Gpu) -> String {
     gpu.description()
 }
 
-#[cfg(not(feature = "gpu"))]
+#[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
 fn describe(gpu: &Gpu) -> String {
     match *gpu {}
 }
@@ -256,9 +256,9 @@ fn search_on(
     gpu: Option<&Gpu>,
 ) -> MatchReport {
     match gpu {
-        #[cfg(feature = "gpu")]
+        #[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
         Some(gpu) => fast_reject::search::search_on_gpu(scene, source, options, &mut (), gpu),
-        #[cfg(not(feature = "gpu"))]
+        #[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
         Some(never) => match *never {},
         None => search(scene, source, options, &mut ()),
     }

@@ -36,6 +36,9 @@ step "clippy for the wasm32 binding and its tests"
 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm cargo clippy --release \
   --target wasm32-unknown-unknown --no-default-features --features parallel,serde \
   --lib --test wasm -- -D warnings
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm cargo clippy --release \
+  --target wasm32-unknown-unknown --no-default-features --features parallel,serde,gpu \
+  --lib --test wasm_gpu -- -D warnings
 
 step "wasm-bindgen-test in Node"
 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --node -- \
@@ -45,6 +48,10 @@ step "wasm-bindgen-test in headless Chromium"
 # the runner take it to the browser.
 WASM_BINDGEN_USE_BROWSER=1 RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
   --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel,serde --test wasm
+
+step "the WebGPU path in headless Chromium (SwiftShader, flags in webdriver.json)"
+RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack test --release --headless --chrome \
+  --chromedriver "$CHROMEDRIVER" -- --no-default-features --features parallel,serde,gpu --test wasm_gpu
 
 step "build pkg/ (plain and threaded)"
 bash scripts/build-wasm.sh all

@@ -18,7 +18,7 @@
 use std::ops::ControlFlow;
 
 use crate::clock::now_ms;
-use crate::descriptor::OnionDescriptor;
+use crate::descriptor::{LayerBatch, LocalFuture, OnionDescriptor};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 
@@ -88,71 +88,86 @@ impl<F: FnMut(&LayerStats) -> ControlFlow<()>> Observer for F {
 /// descriptors form one chain.
 pub trait Stage: Sync {
     /// Runs all layers over `candidates` (points with the anchors they
-    /// still match); `report` sees every layer.
-    fn run(
-        &self,
+    /// still match), each computed first in `batch` where one is given;
+    /// `report` sees every layer.
+    fn run<'a>(
+        &'a self,
         candidates: Vec<(u32, Anchors)>,
         backend: Backend,
-        report: &mut dyn FnMut(LayerStats) -> Result<()>,
-    ) -> Result<Vec<Survivor>>;
+        batch: Option<&'a dyn LayerBatch>,
+        report: &'a mut dyn FnMut(LayerStats) -> Result<()>,
+    ) -> LocalFuture<'a, Result<Vec<Survivor>>>;
+
+    /// Why its batch failed, if it did.
+    fn batch_failure(&self) -> Option<String>;
 }
 
 impl<D: OnionDescriptor> Stage for D {
-    fn run(
-        &self,
+    fn run<'a>(
+        &'a self,
         candidates: Vec<(u32, Anchors)>,
         backend: Backend,
-        report: &mut dyn FnMut(LayerStats) -> Result<()>,
-    ) -> Result<Vec<Survivor>> {
-        let threshold = self.threshold();
-        // Choosing the order is part of the first layer's time.
-        let mut begun = now_ms();
-        let points: Vec<u32> = candidates.iter().map(|&(p, _)| p).collect();
-        let order = self.order(&points, backend);
-        drop(points);
-        let mut live: Vec<(u32, D::State, f64)> = candidates
-            .into_iter()
-            .map(|(p, anchors)| (p, self.start(p, anchors), 0.0))
-            .collect();
-        for layer in order {
-            let start = begun;
-            let entered = live.len();
-            let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();
-            self.prepare(layer, &points);
+        batch: Option<&'a dyn LayerBatch>,
+        report: &'a mut dyn FnMut(LayerStats) -> Result<()>,
+    ) -> LocalFuture<'a, Result<Vec<Survivor>>> {
+        Box::pin(async move {
+            let threshold = self.threshold();
+            // Choosing the order is part of the first layer's time.
+            let mut begun = now_ms();
+            let points: Vec<u32> = candidates.iter().map(|&(p, _)| p).collect();
+            let order = self.order(&points, backend);
             drop(points);
-            live = backend.filter_map_owned(live, |(p, mut state, _)| {
-                let d = self.extend(p, layer, &mut state);
-                (d <= threshold).then_some((p, state, d))
-            });
-            report(LayerStats {
-                descriptor: self.name(),
-                layer: layer + 1,
-                radius: self.radius(layer),
-                candidates: entered,
-                survivors: live.len(),
-                ms: now_ms() - start,
-            })?;
-            begun = now_ms();
-        }
-        Ok(live
-            .into_iter()
-            .map(|(point, state, distance)| Survivor {
-                point,
-                distance,
-                anchors: self.anchors(&state),
-            })
-            .collect())
+            let mut live: Vec<(u32, D::State, f64)> = candidates
+                .into_iter()
+                .map(|(p, anchors)| (p, self.start(p, anchors), 0.0))
+                .collect();
+            for layer in order {
+                let start = begun;
+                let entered = live.len();
+                if let Some(batch) = batch {
+                    let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();
+                    self.prepare(layer, &points, batch).await;
+                }
+                live = backend.filter_map_owned(live, |(p, mut state, _)| {
+                    let d = self.extend(p, layer, &mut state);
+                    (d <= threshold).then_some((p, state, d))
+                });
+                report(LayerStats {
+                    descriptor: self.name(),
+                    layer: layer + 1,
+                    radius: self.radius(layer),
+                    candidates: entered,
+                    survivors: live.len(),
+                    ms: now_ms() - start,
+                })?;
+                begun = now_ms();
+            }
+            Ok(live
+                .into_iter()
+                .map(|(point, state, distance)| Survivor {
+                    point,
+                    distance,
+                    anchors: self.anchors(&state),
+                })
+                .collect())
+        })
+    }
+
+    fn batch_failure(&self) -> Option<String> {
+        OnionDescriptor::batch_failure(self)
     }
 }
 
 /// Runs the stages in order from `candidates`, each matching the anchors
-/// `anchors`; returns the survivors of the last stage and the statistics of
-/// every layer.
-pub fn run_cascade(
+/// `anchors`, computing layers first in `batch` where one is given;
+/// returns the survivors of the last stage and the statistics of every
+/// layer.
+pub async fn run_cascade(
     stages: &[&dyn Stage],
     candidates: Vec<u32>,
     anchors: Anchors,
     backend: Backend,
+    batch: Option<&dyn LayerBatch>,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
     let mut stats = Vec::new();
@@ -174,10 +189,22 @@ pub fn run_cascade(
         .collect();
     let mut points: Vec<(u32, Anchors)> = candidates.into_iter().map(|p| (p, anchors)).collect();
     for stage in stages {
-        survivors = stage.run(points, backend, &mut report)?;
+        survivors = stage.run(points, backend, batch, &mut report).await?;
         points = survivors.iter().map(|s| (s.point, s.anchors)).collect();
     }
     Ok((survivors, stats))
+}
+
+/// The output of a future that never waits: a search with no batch (its
+/// stages compute every layer themselves). Polled once; one that would
+/// wait is a bug.
+pub fn finished<T>(future: impl std::future::Future<Output = T>) -> T {
+    let mut future = std::pin::pin!(future);
+    let mut context = std::task::Context::from_waker(std::task::Waker::noop());
+    match future.as_mut().poll(&mut context) {
+        std::task::Poll::Ready(value) => value,
+        std::task::Poll::Pending => unreachable!("a search with no batch never waits"),
+    }
 }
 
 #[cfg(test)]
@@ -281,7 +308,7 @@ mod tests {
         candidates: Vec<u32>,
         backend: Backend,
     ) -> (Vec<Survivor>, Vec<LayerStats>) {
-        run_cascade(stages, candidates, 1, backend, &mut ()).unwrap()
+        finished(run_cascade(stages, candidates, 1, backend, None, &mut ())).unwrap()
     }
 
     /// The statistics without the times.
@@ -384,13 +411,14 @@ mod tests {
                     }
                 };
                 let computed_before = first.computed().len() + second.computed().len();
-                let r = run_cascade(
+                let r = finished(run_cascade(
                     &[&first, &second],
                     (0..6).collect(),
                     1,
                     backend,
+                    None,
                     &mut observer,
-                );
+                ));
                 assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
                 assert_eq!(seen.len(), stop_at, "{backend:?}: {seen:?}");
                 // Nothing is computed after the layer that broke.

@@ -67,10 +67,8 @@ pub mod error;
 pub mod exec;
 #[cfg(feature = "gpu")]
 pub mod gpu;
-// wgpu reaches the browser's WebGPU only through async calls, which the
-// search does not make yet.
-#[cfg(all(feature = "gpu", target_arch = "wasm32"))]
-compile_error!("the gpu feature is native only for now: build the wasm targets without it");
+#[cfg(all(feature = "gpu", target_os = "wasi"))]
+compile_error!("wgpu has no backend on WASI: build wasm32-wasip1 without the gpu feature");
 pub(crate) mod instances;
 pub mod math;
 pub mod mesh;

@@ -1,6 +1,6 @@
 //! The GPU backend against the CPU on shared scenes: the same candidates
 //! at every layer and the same instances (lavapipe in CI; any adapter).
-#![cfg(feature = "gpu")]
+#![cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
 
 mod common;
 

@@ -26,39 +26,48 @@ impl<T: Copy> PreparedLayer<T> {
         }
     }
 
-    /// Computes layer `layer` for `points` with `compute`, which gets the
-    /// points sorted and returns one value per point in that order.
-    pub(crate) fn fill(
-        &self,
-        layer: usize,
-        points: &[u32],
-        compute: impl FnOnce(&[u32]) -> Result<Vec<T>, String>,
-    ) {
-        let mut prepared = self.layer.write().unwrap_or_else(|p| p.into_inner());
-        *prepared = None;
-        let mut failure = self.failure.lock().unwrap_or_else(|p| p.into_inner());
-        if failure.is_some() || points.is_empty() {
-            return;
+    /// Starts layer `layer` for `points`: forgets the previous layer's
+    /// values and returns the points sorted, the order the values must come
+    /// in, or `None` when there is nothing to compute (no points, or the
+    /// batch failed before).
+    pub(crate) fn begin(&self, points: &[u32]) -> Option<Vec<u32>> {
+        *self.layer.write().unwrap_or_else(|p| p.into_inner()) = None;
+        let failed = self
+            .failure
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_some();
+        if failed || points.is_empty() {
+            return None;
         }
         let mut sorted = points.to_vec();
         sorted.sort_unstable();
-        match compute(&sorted) {
-            Ok(values) if values.len() == sorted.len() => {
-                *prepared = Some(Values {
-                    layer,
-                    points: sorted,
-                    values,
-                })
-            }
+        Some(sorted)
+    }
+
+    /// Keeps the values the batch computed for layer `layer` at the points
+    /// [`Self::begin`] returned, or why it could not.
+    pub(crate) fn finish(&self, layer: usize, points: Vec<u32>, values: Result<Vec<T>, String>) {
+        let values = match values {
+            Ok(values) if values.len() == points.len() => values,
             Ok(values) => {
-                *failure = Some(format!(
+                return self.fail(format!(
                     "a batch returned {} values for {} points",
                     values.len(),
-                    sorted.len()
-                ))
+                    points.len()
+                ));
             }
-            Err(reason) => *failure = Some(reason),
-        }
+            Err(reason) => return self.fail(reason),
+        };
+        *self.layer.write().unwrap_or_else(|p| p.into_inner()) = Some(Values {
+            layer,
+            points,
+            values,
+        });
+    }
+
+    fn fail(&self, reason: String) {
+        *self.failure.lock().unwrap_or_else(|p| p.into_inner()) = Some(reason);
     }
 
     /// The value of `point` at `layer`, if the batch computed it.

@@ -19,8 +19,44 @@ pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::VolumeDescriptor;
 
+use std::future::Future;
+use std::pin::Pin;
+
 use crate::cascade::Anchors;
 use crate::exec::Backend;
+use crate::voxel::Ball;
+use harmonics::{Signature, SphereSampler};
+
+/// A future that may borrow its inputs and need not be `Send`: GPU handles
+/// are not, in the threaded WebAssembly build.
+pub type LocalFuture<'a, T> = Pin<Box<dyn Future<Output = T> + 'a>>;
+
+/// Computes one layer for many points at once (a GPU), on the thread that
+/// runs the search, and lets the search wait for it without blocking (a
+/// browser answers only on its event loop). Not `Sync`: the stages keep
+/// its results, never the batch itself, so their per-point work can still
+/// run on other threads.
+pub trait LayerBatch {
+    /// The solid voxels in `ball` around each of `voxels`: the same
+    /// integers as the volume stage's own counts. `Err` says why not; the
+    /// stage then counts on the CPU.
+    fn ball_counts<'a>(
+        &'a self,
+        ball: &'a Ball,
+        voxels: &'a [[u16; 3]],
+    ) -> LocalFuture<'a, Result<Vec<u64>, String>>;
+
+    /// The signatures of the sphere `sampler` around each of `voxels`,
+    /// each degree within [`LayerBatch::max_sphere_error`] of the CPU's.
+    fn sphere_signatures<'a>(
+        &'a self,
+        sampler: &'a SphereSampler,
+        voxels: &'a [[u16; 3]],
+    ) -> LocalFuture<'a, Result<Vec<Signature>, String>>;
+
+    /// The largest difference per degree of a signature from the CPU's.
+    fn max_sphere_error(&self) -> f32;
+}
 
 /// A layered descriptor compared against a template's, point by point.
 pub trait OnionDescriptor: Sync {
@@ -60,10 +96,24 @@ pub trait OnionDescriptor: Sync {
         1
     }
 
-    /// Called once before layer `layer` is computed for the live `points`:
-    /// a descriptor that computes a layer for many points at once (on a
-    /// GPU) does it here. Nothing by default.
-    fn prepare(&self, _layer: usize, _points: &[u32]) {}
+    /// Called once before layer `layer` is computed for the live `points`
+    /// when the search has a `batch`: a descriptor that can computes the
+    /// layer for all of them there and keeps the values for
+    /// [`Self::extend`]. Nothing by default.
+    fn prepare<'a>(
+        &'a self,
+        _layer: usize,
+        _points: &'a [u32],
+        _batch: &'a dyn LayerBatch,
+    ) -> LocalFuture<'a, ()> {
+        Box::pin(std::future::ready(()))
+    }
+
+    /// Why a batch failed, if it did (the layers from then on ran on the
+    /// CPU, with the same results).
+    fn batch_failure(&self) -> Option<String> {
+        None
+    }
 
     /// Computes layer `layer` at `point` (in [`Self::order`]) and returns
     /// the running distance over the layers computed so far: it never

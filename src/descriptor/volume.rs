@@ -13,7 +13,7 @@
 //! (tested with the voxel balls) cancels out of the comparison.
 
 use super::batch::PreparedLayer;
-use super::{ClutterPolicy, OnionDescriptor};
+use super::{ClutterPolicy, LayerBatch, LocalFuture, OnionDescriptor};
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
 use crate::voxel::{Ball, Solid, level_for_radius};
@@ -23,15 +23,6 @@ use crate::voxel::{Ball, Solid, level_for_radius};
 /// from an exact voxel count by 0.003 on average (0.016 at worst) at 4.5-5.5
 /// blocks, against a threshold of 0.12 on the sum over six layers.
 pub const BLOCKS_PER_RADIUS: f64 = 4.5;
-
-/// Counts many points' balls at once (on a GPU): the same integers as the
-/// stage's own counts, so a stage given a batch keeps exactly the points it
-/// keeps without one.
-pub trait BallBatch: Sync {
-    /// The solid voxels in `ball` around each of `voxels`, in order, or why
-    /// they could not be counted (the stage then counts them itself).
-    fn counts(&self, ball: &Ball, voxels: &[[u16; 3]]) -> Result<Vec<u64>, String>;
-}
 
 /// The volume stage of the cascade: rejects a point once
 /// `sum_i |CF_T(r_i) - CF(v, r_i)|` passes the threshold (Eq. 4) for every
@@ -47,9 +38,8 @@ pub struct VolumeDescriptor<'a> {
     clutter: ClutterPolicy,
     /// Leading layers that always count (see [`super::clutter`]).
     clean_layers: usize,
-    /// Where layers are counted in batches, the batch and the current
-    /// layer's counts.
-    batch: Option<&'a dyn BallBatch>,
+    /// Where a batch counts the layers: the current layer's counts (the
+    /// same integers as the stage's own, so no guard band is needed).
     prepared: PreparedLayer<u64>,
 }
 
@@ -99,22 +89,8 @@ impl<'a> VolumeDescriptor<'a> {
             threshold,
             clutter: ClutterPolicy::OFF,
             clean_layers: usize::MAX,
-            batch: None,
             prepared: PreparedLayer::new(),
         }
-    }
-
-    /// Counts each layer's balls for all its candidates in `batch`; the
-    /// stage keeps the same points.
-    pub fn with_batch(mut self, batch: &'a dyn BallBatch) -> Self {
-        self.batch = Some(batch);
-        self
-    }
-
-    /// Why the batch failed, if it did (the layers from then on were
-    /// counted on the CPU).
-    pub fn batch_failure(&self) -> Option<String> {
-        self.prepared.failure()
     }
 
     /// Excuses cluttered layers as `policy` says (see
@@ -215,21 +191,31 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         state.alive
     }
 
-    fn prepare(&self, layer: usize, points: &[u32]) {
-        let Some(batch) = self.batch else {
-            return;
-        };
-        self.prepared.fill(layer, points, |sorted| {
+    fn prepare<'b>(
+        &'b self,
+        layer: usize,
+        points: &'b [u32],
+        batch: &'b dyn LayerBatch,
+    ) -> LocalFuture<'b, ()> {
+        Box::pin(async move {
+            let Some(sorted) = self.prepared.begin(points) else {
+                return;
+            };
             let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
-            batch.counts(&self.balls[layer], &voxels)
-        });
+            let counts = batch.ball_counts(&self.balls[layer], &voxels).await;
+            self.prepared.finish(layer, sorted, counts);
+        })
+    }
+
+    fn batch_failure(&self) -> Option<String> {
+        self.prepared.failure()
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut VolumeState) -> f64 {
         let compared = state.alive & !state.excused;
         if compared != 0 {
             let (ball, v) = (&self.balls[layer], self.points[point as usize]);
-            let f = match self.batch.and(self.prepared.get(point, layer)) {
+            let f = match self.prepared.get(point, layer) {
                 Some(inside) => inside as f64 / ball.covered(v) as f64,
                 None => ball.fraction(self.solid, v),
             };

@@ -3,7 +3,7 @@
 
 use super::solid::{Cells, GpuSolid};
 use super::{Dispatch, storage};
-use crate::descriptor::harmonics::{DEGREES, Signature, SphereBatch, SphereSampler};
+use crate::descriptor::harmonics::{DEGREES, Signature, SphereSampler};
 
 /// The kernel's WGSL source.
 pub(super) const SHADER: &str = include_str!("harmonics.wgsl");
@@ -18,7 +18,7 @@ const GROUPS_X: u32 = 65535;
 /// The per-degree error bound the stage's guard band assumes: about 40
 /// times the largest difference measured against the CPU (2.6e-7), and
 /// checked by the tests.
-const MAX_ERROR: f32 = 1e-5;
+pub(super) const MAX_ERROR: f32 = 1e-5;
 
 /// Matches the kernel's `Params`.
 #[repr(C)]
@@ -33,7 +33,7 @@ struct Params {
 
 impl GpuSolid<'_> {
     /// The signatures of one chunk of candidates.
-    fn sphere_chunk(
+    async fn sphere_chunk(
         &self,
         sampler: &SphereSampler,
         tables: &(wgpu::Buffer, wgpu::Buffer),
@@ -62,20 +62,22 @@ impl GpuSolid<'_> {
             groups_x: GROUPS_X,
         };
         let origins = storage(&gpu.device, "origins", bytemuck::cast_slice(&origins));
-        let bytes = gpu.run_kernel(Dispatch {
-            pipeline: &gpu.spheres,
-            params: bytemuck::bytes_of(&params),
-            inputs: &[
-                &cells.buffer,
-                &origins,
-                &tables.0,
-                &tables.1,
-                &gpu.fourier,
-                &gpu.legendre,
-            ],
-            output_bytes: (voxels.len() * DEGREES * 4) as u64,
-            workgroups: [count.min(GROUPS_X), count.div_ceil(GROUPS_X)],
-        })?;
+        let bytes = gpu
+            .run_kernel(Dispatch {
+                pipeline: &gpu.spheres,
+                params: bytemuck::bytes_of(&params),
+                inputs: &[
+                    &cells.buffer,
+                    &origins,
+                    &tables.0,
+                    &tables.1,
+                    &gpu.fourier,
+                    &gpu.legendre,
+                ],
+                output_bytes: (voxels.len() * DEGREES * 4) as u64,
+                workgroups: [count.min(GROUPS_X), count.div_ceil(GROUPS_X)],
+            })
+            .await?;
         let values: &[f32] = bytemuck::cast_slice(&bytes);
         Ok(values
             .chunks_exact(DEGREES)
@@ -84,8 +86,9 @@ impl GpuSolid<'_> {
     }
 }
 
-impl SphereBatch for GpuSolid<'_> {
-    fn signatures(
+impl GpuSolid<'_> {
+    /// The signatures of the sphere `sampler` around each of `voxels`.
+    pub(super) async fn signatures(
         &self,
         sampler: &SphereSampler,
         voxels: &[[u16; 3]],
@@ -101,12 +104,8 @@ impl SphereBatch for GpuSolid<'_> {
         );
         let mut out = Vec::with_capacity(voxels.len());
         for chunk in voxels.chunks(CHUNK) {
-            out.extend(self.sphere_chunk(sampler, &tables, chunk)?);
+            out.extend(self.sphere_chunk(sampler, &tables, chunk).await?);
         }
         Ok(out)
-    }
-
-    fn max_error(&self) -> f32 {
-        MAX_ERROR
     }
 }

@@ -1,13 +1,15 @@
-//! The GPU backend (feature `gpu`): the harmonics layers of the cascade
-//! computed on a GPU through wgpu.
+//! The GPU backend (feature `gpu`): the cascade's volume and harmonics
+//! layers computed on a GPU through wgpu, Vulkan natively and WebGPU in a
+//! browser, from one WGSL source per kernel.
 //!
 //! The device is made apart from the work and handed in ([`Gpu::new`]), so
-//! that tests can give it a software adapter (lavapipe) and an embedder its
-//! own device; [`Gpu::request`] finds one the usual way. A GPU's f32
-//! signatures differ from the CPU's by rounding only; the harmonics stage
-//! takes them as a filter with a guard band and recomputes on the CPU every
-//! decision the difference could flip (see
-//! [`crate::descriptor::harmonics::SphereBatch`]), so that both backends
+//! that tests can give it a software adapter (lavapipe, SwiftShader) and an
+//! embedder its own device; [`Gpu::request_async`] finds one the usual way.
+//! A [`GpuSolid`] is a [`crate::descriptor::LayerBatch`]: the stages ask it
+//! for a layer's values for all live points and wait without blocking (a
+//! browser answers on its event loop). Ball counts are integers, the same
+//! as the CPU's; harmonics signatures differ by f32 rounding only and are
+//! taken with a guard band (see `descriptor::harmonics`), so both backends
 //! keep the same candidates. Every failure (no adapter, a buffer past the
 //! device's limits, a lost device) is reported and the search goes on on
 //! the CPU.
@@ -24,7 +26,7 @@ use crate::error::{Error, Result};
 
 /// Every kernel's WGSL, by file name (validated by a test with no
 /// adapter).
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 const SHADERS: &[(&str, &str)] = &[
     ("harmonics.wgsl", harmonics::SHADER),
     ("volume.wgsl", volume::SHADER),
@@ -57,17 +59,25 @@ pub struct Gpu {
 impl Gpu {
     /// Asks the system for an adapter of `choice` and a device on it;
     /// `Ok(None)` when there is none. Blocks until the device is ready.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn request(choice: AdapterChoice) -> Result<Option<Gpu>> {
+        pollster::block_on(Gpu::request_async(choice))
+    }
+
+    /// [`Gpu::request`] without blocking: what a browser needs, where the
+    /// adapter and device arrive on the event loop.
+    pub async fn request_async(choice: AdapterChoice) -> Result<Option<Gpu>> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let options = wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             ..Default::default()
         };
-        let Ok(adapter) = pollster::block_on(instance.request_adapter(&options)) else {
+        let Ok(adapter) = instance.request_adapter(&options).await else {
             return Ok(None);
         };
         let info = adapter.get_info();
+        // Lavapipe natively, and a browser's fallback adapter, say Cpu.
         if choice == AdapterChoice::Hardware && info.device_type == wgpu::DeviceType::Cpu {
             return Ok(None);
         }
@@ -84,7 +94,9 @@ impl Gpu {
             required_limits: limits,
             ..Default::default()
         };
-        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+        let (device, queue) = adapter
+            .request_device(&descriptor)
+            .await
             .map_err(|e| unavailable(format!("the adapter {} gave no device: {e}", info.name)))?;
         Gpu::new(device, queue, info).map(Some)
     }
@@ -180,7 +192,7 @@ struct Dispatch<'a> {
 impl Gpu {
     /// Runs `d` and returns its output's bytes. Blocks until the device is
     /// done; every error the device reports on the way fails it.
-    fn run_kernel(&self, d: Dispatch) -> std::result::Result<Vec<u8>, String> {
+    async fn run_kernel(&self, d: Dispatch<'_>) -> std::result::Result<Vec<u8>, String> {
         use wgpu::util::DeviceExt;
         let device = &self.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -224,23 +236,63 @@ impl Gpu {
         }
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, d.output_bytes);
         self.queue.submit([encoder.finish()]);
-        let mapped: Arc<Mutex<Option<std::result::Result<(), wgpu::BufferAsyncError>>>> =
-            Arc::default();
-        let slot = mapped.clone();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
-        });
+        let mapped = Slot::new();
+        readback.map_async(wgpu::MapMode::Read, .., mapped.setter());
+        // Natively the device is polled here; a browser's answers on its
+        // event loop, which the await below returns to.
+        #[cfg(not(target_arch = "wasm32"))]
         device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| e.to_string())?;
+        let done = mapped.await;
         self.check("running a kernel").map_err(|e| e.to_string())?;
-        match mapped.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            Some(Ok(())) => {}
-            Some(Err(e)) => return Err(format!("reading a kernel's output back: {e}")),
-            None => return Err("the GPU never finished a kernel".into()),
-        }
+        done.map_err(|e| format!("reading a kernel's output back: {e}"))?;
         let view = readback.get_mapped_range(..).map_err(|e| e.to_string())?;
         Ok(view.to_vec())
+    }
+}
+
+/// A value a callback delivers, awaited: resolves once the callback ran.
+struct Slot<T>(Arc<Mutex<SlotState<T>>>);
+
+struct SlotState<T> {
+    value: Option<T>,
+    waker: Option<std::task::Waker>,
+}
+
+impl<T: Send + 'static> Slot<T> {
+    fn new() -> Self {
+        Slot(Arc::new(Mutex::new(SlotState {
+            value: None,
+            waker: None,
+        })))
+    }
+
+    /// The callback that fills the slot.
+    fn setter(&self) -> impl FnOnce(T) + Send + 'static {
+        let state = self.0.clone();
+        move |value| {
+            let mut s = state.lock().unwrap_or_else(|p| p.into_inner());
+            s.value = Some(value);
+            if let Some(waker) = s.waker.take() {
+                waker.wake();
+            }
+        }
+    }
+}
+
+impl<T> std::future::Future for Slot<T> {
+    type Output = T;
+
+    fn poll(self: std::pin::Pin<&mut Self>, cx: &mut std::task::Context<'_>) -> std::task::Poll<T> {
+        let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        match s.value.take() {
+            Some(value) => std::task::Poll::Ready(value),
+            None => {
+                s.waker = Some(cx.waker().clone());
+                std::task::Poll::Pending
+            }
+        }
     }
 }
 
@@ -258,5 +310,7 @@ fn unavailable(reason: String) -> Error {
     Error::Gpu { reason }
 }
 
-#[cfg(test)]
+// Native: they block on the device (the browser's path has its own test,
+// tests/wasm_gpu.rs).
+#[cfg(all(test, not(target_arch = "wasm32")))]
 pub(crate) mod tests;

@@ -1,12 +1,15 @@
 //! One solid on the device: what its kernels read, uploaded on first use
 //! and kept while the solid is searched.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::rc::Rc;
 
 use super::{Gpu, storage};
+use crate::descriptor::harmonics::{Signature, SphereSampler};
+use crate::descriptor::{LayerBatch, LocalFuture};
 use crate::exec::Backend;
-use crate::voxel::Solid;
+use crate::voxel::{Ball, Solid};
 
 /// What a kernel reads of a solid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -23,7 +26,7 @@ pub(super) enum Cells {
 /// entries) they are read with.
 #[derive(Clone)]
 pub(super) struct Uploaded {
-    pub buffer: Arc<wgpu::Buffer>,
+    pub buffer: Rc<wgpu::Buffer>,
     pub dims: [usize; 3],
     pub row_stride: usize,
 }
@@ -32,7 +35,9 @@ pub(super) struct Uploaded {
 pub struct GpuSolid<'a> {
     pub(super) gpu: &'a Gpu,
     solid: &'a Solid,
-    uploaded: Mutex<HashMap<Cells, Uploaded>>,
+    /// Used on the search's thread only (GPU handles are not `Send` in
+    /// the threaded WebAssembly build).
+    uploaded: RefCell<HashMap<Cells, Uploaded>>,
 }
 
 impl<'a> GpuSolid<'a> {
@@ -41,14 +46,13 @@ impl<'a> GpuSolid<'a> {
         GpuSolid {
             gpu,
             solid,
-            uploaded: Mutex::default(),
+            uploaded: RefCell::default(),
         }
     }
 
     /// `cells` on the device, uploaded the first time.
     pub(super) fn cells(&self, cells: Cells) -> Result<Uploaded, String> {
-        let mut uploaded = self.uploaded.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(u) = uploaded.get(&cells) {
+        if let Some(u) = self.uploaded.borrow().get(&cells) {
             return Ok(u.clone());
         }
         let grid = self.solid.bits();
@@ -79,11 +83,33 @@ impl<'a> GpuSolid<'a> {
             ));
         }
         let u = Uploaded {
-            buffer: Arc::new(storage(&self.gpu.device, "cells", &bytes)),
+            buffer: Rc::new(storage(&self.gpu.device, "cells", &bytes)),
             dims,
             row_stride,
         };
-        uploaded.insert(cells, u.clone());
+        self.uploaded.borrow_mut().insert(cells, u.clone());
         Ok(u)
+    }
+}
+
+impl LayerBatch for GpuSolid<'_> {
+    fn ball_counts<'a>(
+        &'a self,
+        ball: &'a Ball,
+        voxels: &'a [[u16; 3]],
+    ) -> LocalFuture<'a, Result<Vec<u64>, String>> {
+        Box::pin(self.counts(ball, voxels))
+    }
+
+    fn sphere_signatures<'a>(
+        &'a self,
+        sampler: &'a SphereSampler,
+        voxels: &'a [[u16; 3]],
+    ) -> LocalFuture<'a, Result<Vec<Signature>, String>> {
+        Box::pin(self.signatures(sampler, voxels))
+    }
+
+    fn max_sphere_error(&self) -> f32 {
+        super::harmonics::MAX_ERROR
     }
 }

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::descriptor::SphericalTransform;
-use crate::descriptor::harmonics::{DEGREES, SphereBatch, SphereSampler, describe_sphere};
+use crate::descriptor::harmonics::{DEGREES, SphereSampler, describe_sphere};
 use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::shapes::{cuboid, torus, uv_sphere};
@@ -70,7 +70,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
     for radius in [3.5, 12.0, 25.0, 47.0, 90.0] {
         let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
         levels.push(sampler.level());
-        let got = spheres.signatures(&sampler, &voxels).unwrap();
+        let got = pollster::block_on(spheres.signatures(&sampler, &voxels)).unwrap();
         let mut worst = 0.0f32;
         for (v, g) in voxels.iter().zip(&got) {
             let want = describe_sphere(&solid, *v, &sampler, &t);
@@ -81,7 +81,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
         eprintln!("radius {radius}: worst {worst:e}");
         // A quarter of the bound the guard band assumes.
         assert!(
-            worst <= spheres.max_error() / 4.0,
+            worst <= harmonics::MAX_ERROR / 4.0,
             "radius {radius}: {worst} on {}",
             gpu.description()
         );
@@ -94,7 +94,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
 
 #[test]
 fn gpu_ball_counts_equal_the_cpus() {
-    use crate::descriptor::volume::{BLOCKS_PER_RADIUS, BallBatch};
+    use crate::descriptor::volume::BLOCKS_PER_RADIUS;
     use crate::voxel::{Ball, level_for_radius};
     let Some(gpu) = test_gpu() else { return };
     let solid = lumpy_solid(0.02);
@@ -112,7 +112,7 @@ fn gpu_ball_counts_equal_the_cpus() {
         let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
         levels.push(level);
         let ball = Ball::build(radius, level, Backend::Serial).bind(&solid, Backend::Serial);
-        let got = on_gpu.counts(&ball, &voxels).unwrap();
+        let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
         let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
         assert_eq!(got, want, "radius {radius} (level {level})");
         assert!(want.iter().any(|&n| n > 0));

@@ -3,7 +3,6 @@
 
 use super::solid::{Cells, GpuSolid};
 use super::{Dispatch, storage};
-use crate::descriptor::volume::BallBatch;
 use crate::voxel::Ball;
 
 /// The kernel's WGSL source.
@@ -27,8 +26,13 @@ struct Params {
     threads_x: u32,
 }
 
-impl BallBatch for GpuSolid<'_> {
-    fn counts(&self, ball: &Ball, voxels: &[[u16; 3]]) -> Result<Vec<u64>, String> {
+impl GpuSolid<'_> {
+    /// The solid voxels in `ball` around each of `voxels`.
+    pub(super) async fn counts(
+        &self,
+        ball: &Ball,
+        voxels: &[[u16; 3]],
+    ) -> Result<Vec<u64>, String> {
         // Counts are u32 on the device.
         if ball.covered([0; 3]) >= u64::from(u32::MAX) {
             return Err(format!(
@@ -62,13 +66,15 @@ impl BallBatch for GpuSolid<'_> {
                 .map(|v| [v[0].into(), v[1].into(), v[2].into(), 0])
                 .collect();
             let at = storage(&gpu.device, "voxels", bytemuck::cast_slice(&at));
-            let bytes = gpu.run_kernel(Dispatch {
-                pipeline: &gpu.balls,
-                params: bytemuck::bytes_of(&params),
-                inputs: &[&cells.buffer, &at, &runs, &starts],
-                output_bytes: u64::from(count) * 4,
-                workgroups: [groups.min(GROUPS_X), groups.div_ceil(GROUPS_X)],
-            })?;
+            let bytes = gpu
+                .run_kernel(Dispatch {
+                    pipeline: &gpu.balls,
+                    params: bytemuck::bytes_of(&params),
+                    inputs: &[&cells.buffer, &at, &runs, &starts],
+                    output_bytes: u64::from(count) * 4,
+                    workgroups: [groups.min(GROUPS_X), groups.div_ceil(GROUPS_X)],
+                })
+                .await?;
             let counts: &[u32] = bytemuck::cast_slice(&bytes);
             out.extend(counts.iter().map(|&n| u64::from(n)));
         }

@@ -4,7 +4,7 @@
 use super::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
 use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
-use crate::cascade::{Observer, run_cascade};
+use crate::cascade::{Observer, finished, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
 use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
@@ -53,18 +53,37 @@ pub(super) fn search_curvature(
                 options.curvature_threshold * SAMPLE_SLACK,
             )
             .named("curvature-sample");
-            let (near, mut stats) =
-                run_cascade(&[&loose], sample.vertices, 1, options.backend, observer)?;
+            let (near, mut stats) = finished(run_cascade(
+                &[&loose],
+                sample.vertices,
+                1,
+                options.backend,
+                None,
+                observer,
+            ))?;
             let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
             let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
-            let (survivors, exact) =
-                run_cascade(&[&curvature], candidates, 1, options.backend, observer)?;
+            let (survivors, exact) = finished(run_cascade(
+                &[&curvature],
+                candidates,
+                1,
+                options.backend,
+                None,
+                observer,
+            ))?;
             stats.extend(exact);
             (survivors, stats)
         }
         None => {
             let every = surface.used_vertices().collect();
-            run_cascade(&[&curvature], every, 1, options.backend, observer)?
+            finished(run_cascade(
+                &[&curvature],
+                every,
+                1,
+                options.backend,
+                None,
+                observer,
+            ))?
         }
     };
     let t2 = now_ms();

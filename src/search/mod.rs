@@ -30,15 +30,30 @@ pub fn search(
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
-    voxel::search_voxels(scene, source, options, observer, None)
+    // With no batch, nothing waits.
+    crate::cascade::finished(voxel::search_voxels(scene, source, options, observer, None))
 }
 
-/// [`search`] with the harmonics layers computed on `gpu`: the same
-/// instances (see [`crate::descriptor::harmonics::SphereBatch`]). The
-/// report's `gpu` says which adapter ran and whether layers went back to
-/// the CPU; the curvature descriptor runs on the CPU.
-#[cfg(feature = "gpu")]
+/// [`search`] with the volume and harmonics layers computed on `gpu`:
+/// the same instances (see `descriptor::harmonics` on the guard band).
+/// The report's `gpu` says which adapter ran and whether layers went back
+/// to the CPU; the curvature descriptor runs on the CPU. Blocks while the
+/// GPU works.
+#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
 pub fn search_on_gpu(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+    gpu: &crate::gpu::Gpu,
+) -> Result<MatchReport> {
+    pollster::block_on(search_on_gpu_async(scene, source, options, observer, gpu))
+}
+
+/// [`search_on_gpu`] without blocking: the form a browser needs, where the
+/// GPU's results arrive on the event loop.
+#[cfg(feature = "gpu")]
+pub async fn search_on_gpu_async(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
@@ -49,7 +64,7 @@ pub fn search_on_gpu(
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
-    voxel::search_voxels(scene, source, options, observer, Some(gpu))
+    voxel::search_voxels(scene, source, options, observer, Some(gpu)).await
 }
 
 /// The GPU a voxel search may use (nothing can be given without the

@@ -15,7 +15,7 @@ use crate::cascade::{LayerStats, Observer, Stage, Survivor, all_anchors, run_cas
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
-use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{HarmonicsDescriptor, LayerBatch, SphericalTransform, VolumeDescriptor};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{
     Instance, Verified, best_first, group, local_bests, merge_duplicates, placement_transform,
@@ -30,7 +30,7 @@ use crate::voxel::{Ball, WindowedMesh, spaced};
 /// part by part: each connected part of the scene large enough to hold a
 /// copy is voxelized on its own, so that what touches it or sits in it does
 /// not hide it.
-pub(super) fn search_voxels(
+pub(super) async fn search_voxels(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
@@ -137,7 +137,6 @@ pub(super) fn search_voxels(
         vertex_reach: near_vertices::reach(gap, template.candidate_spacing(), voxel, radii[0]),
         held,
         lattice: &lattice,
-        gpu,
     };
     let template_ms = now_ms() - t0;
     let mut found = Found::default();
@@ -154,7 +153,8 @@ pub(super) fn search_voxels(
             found.instances.extend(moved);
             continue;
         }
-        let instances = searcher.part(i, part, &mut found, observer)?;
+        let mut runner = Runner { observer, gpu };
+        let instances = searcher.part(i, part, &mut found, &mut runner).await?;
         found_on[k] = instances.clone();
         found.instances.extend(instances);
     }
@@ -200,9 +200,6 @@ struct PartSearch<'a> {
     vertex_reach: f64,
     /// What the search holds besides a part's grids.
     held: MemoryEstimate,
-    /// Where the harmonics layers run, if not on the CPU.
-    #[cfg_attr(not(feature = "gpu"), expect(dead_code))]
-    gpu: GpuRef<'a>,
 }
 
 /// The report's line on the GPU given.
@@ -222,12 +219,12 @@ fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
 impl PartSearch<'_> {
     /// The instances on scene part `index`: on its own grid, or window by
     /// window when it is too large for one.
-    fn part(
+    async fn part(
         &self,
         index: usize,
         part: &ScenePart,
         found: &mut Found,
-        observer: &mut dyn Observer,
+        runner: &mut Runner<'_>,
     ) -> Result<Vec<Instance>> {
         let (scene, template) = (self.scene, self.template);
         let backend = self.options.backend;
@@ -251,7 +248,9 @@ impl PartSearch<'_> {
                     &fresh
                 }
             };
-            return self.grid(part, voxels, None, near.as_ref(), found, observer);
+            return self
+                .grid(part, voxels, None, near.as_ref(), found, runner)
+                .await;
         };
         let windowed = WindowedMesh::new(mesh.subset(part.triangles()), backend);
         let mut held = self.held.clone();
@@ -302,14 +301,10 @@ impl PartSearch<'_> {
             let voxels = PartVoxels::build_window(&windowed, &window.spec, backend);
             found.windows += 1;
             found.timings.voxelize += voxels.voxelize_ms();
-            instances.extend(self.grid(
-                part,
-                &voxels,
-                Some(window),
-                near.as_ref(),
-                found,
-                observer,
-            )?);
+            instances.extend(
+                self.grid(part, &voxels, Some(window), near.as_ref(), found, runner)
+                    .await?,
+            );
         }
         // A copy whose points fall in two cores is found from both.
         Ok(merge_duplicates(
@@ -320,14 +315,14 @@ impl PartSearch<'_> {
 
     /// The instances on `voxels`, one grid of `part` (its whole, or a
     /// window whose core holds the candidates).
-    fn grid(
+    async fn grid(
         &self,
         part: &ScenePart,
         voxels: &PartVoxels,
         window: Option<&Window>,
         near: Option<&NearVertices>,
         found: &mut Found,
-        observer: &mut dyn Observer,
+        runner: &mut Runner<'_>,
     ) -> Result<Vec<Instance>> {
         let (template, options) = (self.template, self.options);
         let backend = options.backend;
@@ -364,7 +359,7 @@ impl PartSearch<'_> {
         })?;
         // The solid on the GPU, uploaded as its layers need it.
         #[cfg(feature = "gpu")]
-        let on_gpu = self
+        let on_gpu = runner
             .gpu
             .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid()));
         let volume = VolumeDescriptor::with_balls(
@@ -379,13 +374,8 @@ impl PartSearch<'_> {
             options.volume_threshold,
         )
         .with_clutter(options.clutter);
-        #[cfg(feature = "gpu")]
-        let volume = match &on_gpu {
-            Some(s) => volume.with_batch(s),
-            None => volume,
-        };
         let harmonics = self.template_harmonics.as_ref().map(|signatures| {
-            let h = HarmonicsDescriptor::new(
+            HarmonicsDescriptor::new(
                 voxels.solid(),
                 voxels.skin(),
                 &self.transform,
@@ -398,13 +388,7 @@ impl PartSearch<'_> {
                 policy: options.clutter,
                 balls: volume.balls(),
                 templates: volume.templates(),
-            });
-            #[cfg(feature = "gpu")]
-            let h = match &on_gpu {
-                Some(s) => h.with_batch(s),
-                None => h,
-            };
-            h
+            })
         });
         let mut stages: Vec<&dyn Stage> = Vec::new();
         if options.descriptor != DescriptorKind::Harmonics {
@@ -413,17 +397,20 @@ impl PartSearch<'_> {
         if let Some(h) = &harmonics {
             stages.push(h);
         }
+        #[cfg(feature = "gpu")]
+        let batch = on_gpu.as_ref().map(|s| s as &dyn LayerBatch);
+        #[cfg(not(feature = "gpu"))]
+        let batch: Option<&dyn LayerBatch> = runner.gpu.map(|never| match *never {});
         let (survivors, stats) = run_cascade(
             &stages,
             candidates,
             all_anchors(self.verifiers.len()),
             backend,
-            observer,
-        )?;
-        let failure = volume
-            .batch_failure()
-            .or_else(|| harmonics.as_ref().and_then(|h| h.batch_failure()));
-        if let Some(reason) = failure {
+            batch,
+            runner.observer,
+        )
+        .await?;
+        if let Some(reason) = stages.iter().find_map(|s| s.batch_failure()) {
             found.gpu_fallback.get_or_insert(reason);
         }
         let t2 = now_ms();
@@ -606,6 +593,13 @@ fn moved_instance(instance: &Instance, motion: &Rigid) -> Instance {
             .map(|pose| motion.after(&Rigid::from_rows(&pose)).to_rows()),
         ..instance.clone()
     }
+}
+
+/// Where a search reports its layers, and what computes them besides the
+/// CPU.
+struct Runner<'r> {
+    observer: &'r mut dyn Observer,
+    gpu: GpuRef<'r>,
 }
 
 /// What the parts searched so far have found.

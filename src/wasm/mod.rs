@@ -218,8 +218,73 @@ impl SceneHandle {
         options: JsValue,
         on_layer: Option<Function>,
     ) -> Result<JsValue, JsError> {
+        let settings = self.settings_for_search(&options)?;
+        let mut progress = Progress {
+            callback: on_layer,
+            failure: None,
+        };
+        let result = search(
+            &self.scene,
+            &template.source,
+            &settings.options,
+            &mut progress,
+        );
+        self.finish_search(result, progress, template)
+    }
+
+    /// [`Self::run_match`] with the volume and harmonics layers on the
+    /// browser's WebGPU, resolving to the same report; its `gpu` names the
+    /// adapter. A page with no adapter, or only a fallback (software)
+    /// one unless `allow_software`, searches on the CPU (`gpu` null); a
+    /// device that fails on the way hands its layers back to the CPU and
+    /// says why in `gpu.fallback`. The same instances either way.
+    #[cfg(feature = "gpu")]
+    #[wasm_bindgen(js_name = matchGpu)]
+    pub async fn run_match_gpu(
+        &mut self,
+        template: &TemplateHandle,
+        options: JsValue,
+        on_layer: Option<Function>,
+        allow_software: bool,
+    ) -> Result<JsValue, JsError> {
+        let settings = self.settings_for_search(&options)?;
+        let mut progress = Progress {
+            callback: on_layer,
+            failure: None,
+        };
+        let gpu = gpu::shared(allow_software).await;
+        let result = match gpu.as_deref() {
+            Some(gpu) => {
+                crate::search::search_on_gpu_async(
+                    &self.scene,
+                    &template.source,
+                    &settings.options,
+                    &mut progress,
+                    gpu,
+                )
+                .await
+            }
+            None => search(
+                &self.scene,
+                &template.source,
+                &settings.options,
+                &mut progress,
+            ),
+        };
+        self.finish_search(result, progress, template)
+    }
+}
+
+impl SceneHandle {
+    /// The search's settings from the JS `options`, with the scene
+    /// voxelized again for another resolution and its budget set to what
+    /// is free.
+    fn settings_for_search(
+        &mut self,
+        options: &JsValue,
+    ) -> Result<options::MatchSettings, JsError> {
         ensure_started();
-        let settings = options::MatchSettings::from_js(&options)?;
+        let settings = options::MatchSettings::from_js(options)?;
         if let Some(resolution) = settings.resolution
             && resolution != self.scene.resolution()
         {
@@ -235,16 +300,16 @@ impl SceneHandle {
         // scene has built already.
         let budget = options::memory_budget(self.scene.built_bytes());
         self.scene.set_memory_budget(budget);
-        let mut progress = Progress {
-            callback: on_layer,
-            failure: None,
-        };
-        let result = search(
-            &self.scene,
-            &template.source,
-            &settings.options,
-            &mut progress,
-        );
+        Ok(settings)
+    }
+
+    /// The report as a JS object, or the error that says why there is none.
+    fn finish_search(
+        &self,
+        result: crate::Result<crate::MatchReport>,
+        progress: Progress,
+        template: &TemplateHandle,
+    ) -> Result<JsValue, JsError> {
         let mut report = match result {
             Ok(report) => report,
             Err(Error::Cancelled) => {
@@ -259,6 +324,39 @@ impl SceneHandle {
         };
         report.timings.load = self.load_ms + template.load_ms;
         report_to_js(&report)
+    }
+}
+
+/// The page's GPU, asked for once.
+#[cfg(feature = "gpu")]
+mod gpu {
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    use crate::gpu::{AdapterChoice, Gpu};
+
+    thread_local! {
+        /// Per choice of adapters (hardware only, any): the device, or
+        /// none when the page has no such adapter or it failed.
+        static SHARED: RefCell<[Option<Option<Rc<Gpu>>>; 2]> = const { RefCell::new([None, None]) };
+    }
+
+    /// The GPU for a search: a hardware adapter's, or any adapter's with
+    /// `allow_software`; `None` when there is none (the search runs on
+    /// the CPU).
+    pub(super) async fn shared(allow_software: bool) -> Option<Rc<Gpu>> {
+        let slot = usize::from(allow_software);
+        if let Some(known) = SHARED.with(|s| s.borrow()[slot].clone()) {
+            return known;
+        }
+        let choice = if allow_software {
+            AdapterChoice::Any
+        } else {
+            AdapterChoice::Hardware
+        };
+        let gpu = Gpu::request_async(choice).await.ok().flatten().map(Rc::new);
+        SHARED.with(|s| s.borrow_mut()[slot] = Some(gpu.clone()));
+        gpu
     }
 }
 

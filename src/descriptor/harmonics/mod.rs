@@ -45,6 +45,7 @@ pub use transform::{SphericalTransform, unfolded_tables};
 use std::sync::Mutex;
 
 use super::batch::PreparedLayer;
+use super::{LayerBatch, LocalFuture};
 
 use super::volume::closest;
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
@@ -96,30 +97,15 @@ pub fn describe_sphere(
     transform.signature(&samples)
 }
 
-/// Computes many spheres' signatures at once (on a GPU), each degree within
-/// [`SphereBatch::max_error`] of [`describe_sphere`]'s.
-///
-/// The stage reads a batch's signatures as a filter with a guard band: it
-/// carries, per anchor, how far the exact running distance can lie from
-/// the one it sums (the errors add as a norm: each sphere's term moves by
-/// at most sqrt(w) times 4 max_error, the 4 being sqrt(DEGREES)), and a
-/// point whose decision (dropped, kept, a sphere excused as cluttered)
-/// could differ within that distance is recomputed on the CPU, every
-/// sphere so far. So the stage keeps and drops exactly the points the CPU
-/// does; survivors' final distances may differ in the sixth digit.
-pub trait SphereBatch: Sync {
-    /// The signatures of the sphere `sampler` around each of `voxels`, in
-    /// order, or why they could not be computed (the stage then falls back
-    /// to the CPU).
-    fn signatures(
-        &self,
-        sampler: &SphereSampler,
-        voxels: &[[u16; 3]],
-    ) -> std::result::Result<Vec<Signature>, String>;
-
-    /// The largest difference per degree from the CPU's signature.
-    fn max_error(&self) -> f32;
-}
+// A batch's signatures ([`super::LayerBatch`]) are taken as a filter with a
+// guard band: the stage carries, per anchor, how far the exact running
+// distance can lie from the one it sums (the errors add as a norm: each
+// sphere's term moves by at most sqrt(w) times 4 max_error, the 4 being
+// sqrt(DEGREES)), and a point whose decision (dropped, kept, a sphere
+// excused as cluttered) could differ within that distance is recomputed on
+// the CPU, every sphere so far. So the stage keeps and drops exactly the
+// points the CPU does; survivors' final distances may differ in the sixth
+// digit.
 
 /// A decision a batch's signature leaves open: the point is recomputed
 /// exactly.
@@ -150,11 +136,11 @@ pub struct HarmonicsDescriptor<'a> {
     /// The template's signatures, one list per anchor.
     templates: Vec<Vec<Signature>>,
     threshold: f64,
-    /// Where layers are computed in batches, the batch, the current
-    /// layer's signatures, and the layers computed so far in order (what a
-    /// point recomputed exactly replays).
-    batch: Option<&'a dyn SphereBatch>,
+    /// Where a batch computes the layers: the current layer's signatures
+    /// with the batch's error bound, and the layers computed so far in
+    /// order (what a point recomputed exactly replays).
     prepared: PreparedLayer<Signature>,
+    batch_error: Mutex<f64>,
     done: Mutex<Vec<usize>>,
 }
 
@@ -187,23 +173,10 @@ impl<'a> HarmonicsDescriptor<'a> {
             clean_layers: usize::MAX,
             templates,
             threshold,
-            batch: None,
             prepared: PreparedLayer::new(),
+            batch_error: Mutex::new(0.0),
             done: Mutex::new(Vec::new()),
         }
-    }
-
-    /// Computes each layer's spheres for all its candidates in `batch`
-    /// (see [`SphereBatch`]); the stage keeps the same points.
-    pub fn with_batch(mut self, batch: &'a dyn SphereBatch) -> Self {
-        self.batch = Some(batch);
-        self
-    }
-
-    /// Why the batch failed, if it did (the layers from then on ran on the
-    /// CPU).
-    pub fn batch_failure(&self) -> Option<String> {
-        self.prepared.failure()
     }
 
     /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
@@ -216,9 +189,9 @@ impl<'a> HarmonicsDescriptor<'a> {
         state: &mut HarmonicsState,
         given: Option<Signature>,
     ) -> Result<(), Ambiguous> {
-        let error = match (given, self.batch) {
-            (Some(_), Some(b)) => f64::from(b.max_error()),
-            _ => 0.0,
+        let error = match given {
+            Some(_) => *self.batch_error.lock().unwrap_or_else(|p| p.into_inner()),
+            None => 0.0,
         };
         let excusable = layer >= self.clean_layers;
         let guard = self.clutter.as_ref().filter(|_| excusable);
@@ -420,23 +393,35 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         state.alive
     }
 
-    fn prepare(&self, layer: usize, points: &[u32]) {
-        let Some(batch) = self.batch else {
-            return;
-        };
-        self.done
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .push(layer);
-        self.prepared.fill(layer, points, |sorted| {
+    fn prepare<'b>(
+        &'b self,
+        layer: usize,
+        points: &'b [u32],
+        batch: &'b dyn LayerBatch,
+    ) -> LocalFuture<'b, ()> {
+        Box::pin(async move {
+            self.done
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(layer);
+            *self.batch_error.lock().unwrap_or_else(|p| p.into_inner()) =
+                f64::from(batch.max_sphere_error());
+            let Some(sorted) = self.prepared.begin(points) else {
+                return;
+            };
             let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
-            batch.signatures(&self.spheres[layer], &voxels)
-        });
+            let signatures = batch.sphere_signatures(&self.spheres[layer], &voxels).await;
+            self.prepared.finish(layer, sorted, signatures);
+        })
+    }
+
+    fn batch_failure(&self) -> Option<String> {
+        self.prepared.failure()
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
         let v = self.points[point as usize];
-        match self.batch.and(self.prepared.get(point, layer)) {
+        match self.prepared.get(point, layer) {
             Some(given) => {
                 let mut trial = *state;
                 match self.update(v, layer, &mut trial, Some(given)) {

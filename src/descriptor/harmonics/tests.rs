@@ -316,7 +316,7 @@ fn surface_voxel_near(solid: &Solid, p: Vec3) -> [u16; 3] {
 
 #[test]
 fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
-    use crate::cascade::run_cascade;
+    use crate::cascade::{finished, run_cascade};
     use crate::descriptor::VolumeDescriptor;
     let t = SphericalTransform::new();
     let voxel = 0.05;
@@ -410,7 +410,15 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     let candidates: Vec<u32> = (0..points.len() as u32).collect();
     let order = h.order(&candidates, Backend::Serial);
     assert!(order == [3, 4, 5, 2, 1, 0] || order == [4, 5, 3, 2, 1, 0]);
-    let (survivors, stats) = run_cascade(&[&h], candidates, 1, Backend::Serial, &mut ()).unwrap();
+    let (survivors, stats) = finished(run_cascade(
+        &[&h],
+        candidates,
+        1,
+        Backend::Serial,
+        None,
+        &mut (),
+    ))
+    .unwrap();
     assert_eq!(stats.iter().map(|s| s.layer - 1).collect::<Vec<_>>(), order);
     assert_eq!(survivors.len(), oracle.len());
     for (s, (point, distance)) in survivors.iter().zip(&oracle) {
@@ -421,7 +429,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
 
 #[test]
 fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
-    use crate::cascade::{Survivor, run_cascade};
+    use crate::cascade::{Survivor, finished, run_cascade};
     use crate::descriptor::VolumeDescriptor;
     use std::collections::BTreeMap;
     let t = SphericalTransform::new();
@@ -458,9 +466,16 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
         });
         let candidates = (0..points.len() as u32).collect();
         let all = crate::cascade::all_anchors(anchors.len());
-        run_cascade(&[&v, &h], candidates, all, Backend::Parallel, &mut ())
-            .unwrap()
-            .0
+        finished(run_cascade(
+            &[&v, &h],
+            candidates,
+            all,
+            Backend::Parallel,
+            None,
+            &mut (),
+        ))
+        .unwrap()
+        .0
     };
     let by_point = |s: Vec<Survivor>| -> BTreeMap<u32, Survivor> {
         s.into_iter().map(|s| (s.point, s)).collect()
@@ -514,7 +529,7 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
 
 /// A batch that returns the CPU's signatures moved by up to `noise` per
 /// degree (a fixed pseudo-random pattern per point and layer) and claims
-/// `bound` as its error.
+/// `bound` as its error; it counts no balls.
 struct NoisyBatch<'a> {
     solid: &'a Solid,
     transform: &'a SphericalTransform,
@@ -522,13 +537,21 @@ struct NoisyBatch<'a> {
     bound: f32,
 }
 
-impl SphereBatch for NoisyBatch<'_> {
-    fn signatures(
-        &self,
-        sampler: &SphereSampler,
-        voxels: &[[u16; 3]],
-    ) -> std::result::Result<Vec<Signature>, String> {
-        Ok(voxels
+impl crate::descriptor::LayerBatch for NoisyBatch<'_> {
+    fn ball_counts<'a>(
+        &'a self,
+        _: &'a crate::voxel::Ball,
+        _: &'a [[u16; 3]],
+    ) -> crate::descriptor::LocalFuture<'a, Result<Vec<u64>, String>> {
+        Box::pin(std::future::ready(Err("no balls here".into())))
+    }
+
+    fn sphere_signatures<'a>(
+        &'a self,
+        sampler: &'a SphereSampler,
+        voxels: &'a [[u16; 3]],
+    ) -> crate::descriptor::LocalFuture<'a, Result<Vec<Signature>, String>> {
+        let signatures = voxels
             .iter()
             .map(|&v| {
                 let mut s = describe_sphere(self.solid, v, sampler, self.transform);
@@ -545,18 +568,19 @@ impl SphereBatch for NoisyBatch<'_> {
                 }
                 s
             })
-            .collect())
+            .collect();
+        Box::pin(std::future::ready(Ok(signatures)))
     }
 
-    fn max_error(&self) -> f32 {
+    fn max_sphere_error(&self) -> f32 {
         self.bound
     }
 }
 
 #[test]
 fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
-    use crate::cascade::run_cascade;
-    use crate::descriptor::VolumeDescriptor;
+    use crate::cascade::{finished, run_cascade};
+    use crate::descriptor::{LayerBatch, VolumeDescriptor};
     let t = SphericalTransform::new();
     let voxel = 0.05;
     let radii = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2];
@@ -592,17 +616,24 @@ fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
         })
     };
     let candidates: Vec<u32> = (0..points.len() as u32).collect();
-    let cascade = |h: &HarmonicsDescriptor| {
-        run_cascade(&[h], candidates.clone(), 1, Backend::Parallel, &mut ())
-            .unwrap()
-            .0
+    let cascade = |h: &HarmonicsDescriptor, batch: Option<&dyn LayerBatch>| {
+        finished(run_cascade(
+            &[h],
+            candidates.clone(),
+            1,
+            Backend::Parallel,
+            batch,
+            &mut (),
+        ))
+        .unwrap()
+        .0
     };
     // The median distance as threshold: many points sit near it.
-    let all = cascade(&stage(f64::INFINITY));
+    let all = cascade(&stage(f64::INFINITY), None);
     let mut distances: Vec<f64> = all.iter().map(|s| s.distance).collect();
     distances.sort_by(f64::total_cmp);
     let threshold = distances[distances.len() / 2];
-    let exact = cascade(&stage(threshold));
+    let exact = cascade(&stage(threshold), None);
     // Noise of 0.01 per degree: far above a GPU's, so the band is crossed
     // often.
     let noise = 0.01;
@@ -613,9 +644,9 @@ fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
             noise,
             bound,
         };
-        let h = stage(threshold).with_batch(&batch);
-        let survivors = cascade(&h);
-        assert_eq!(h.batch_failure(), None);
+        let h = stage(threshold);
+        let survivors = cascade(&h, Some(&batch));
+        assert_eq!(OnionDescriptor::batch_failure(&h), None);
         survivors
     };
     let guarded = noisy(noise);
