@@ -14,7 +14,7 @@ build_plain() {
   # rayon falls back to the calling thread where threads cannot be spawned,
   # so the plain build runs the same parallel code on one thread.
   RUSTFLAGS=$WASM_RUSTFLAGS CARGO_TARGET_DIR=target-wasm wasm-pack build --release --target web --no-pack \
-    --out-dir pkg/plain --out-name fast_reject -- --no-default-features --features parallel,serde
+    --out-dir pkg/plain --out-name fast_reject -- --no-default-features --features parallel,serde,gpu
 }
 
 build_threads() {
@@ -28,7 +28,7 @@ build_threads() {
   RUSTUP_TOOLCHAIN=$WASM_THREADS_TOOLCHAIN RUSTFLAGS=$flags \
     CARGO_UNSTABLE_BUILD_STD=panic_abort,std CARGO_TARGET_DIR=target-wasm-threads \
     wasm-pack build --release --target web --no-pack \
-    --out-dir pkg/threads --out-name fast_reject -- --no-default-features --features threads
+    --out-dir pkg/threads --out-name fast_reject -- --no-default-features --features threads,gpu
 }
 
 mkdir -p pkg

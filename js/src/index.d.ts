@@ -124,7 +124,7 @@ export interface MatchReport {
   grid: { resolution: number; voxel_size: number; skin_voxels: number; windows: number } | null;
   /** The welded surface (curvature only, else null). */
   surface: { vertices: number; triangles: number } | null;
-  /** The GPU the layers ran on, and why some went back to the CPU if any did; null when the search ran on the CPU only (always, for now, in the package). */
+  /** The GPU the layers ran on (`matchGpu`), and why some went back to the CPU if any did; null when the search ran on the CPU only. */
   gpu: { adapter: string; fallback: string | null } | null;
   timings_ms: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };
   /** x, y, z of every instance, best first. */
@@ -138,6 +138,12 @@ export interface MatchReport {
 export interface TemplateOptions {
   /** The format; recognized from the content when absent. */
   format?: MeshFormat;
+}
+
+/** Which WebGPU adapters `Scene.matchGpu` may use. */
+export interface GpuChoice {
+  /** Use a fallback (software) adapter too, such as headless Chromium's SwiftShader: many times slower than the CPU code, for tests. Default false. */
+  allowSoftware?: boolean;
 }
 
 /** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel. */
@@ -159,6 +165,13 @@ export class Scene extends Handle {
   readonly triangles: number;
   /** Finds every occurrence of `template`; throws when cancelled or on bad options. */
   match(template: Template, options?: MatchOptions, onLayer?: LayerCallback): MatchReport;
+  /**
+   * Like `match`, with the volume and harmonics layers on WebGPU where `navigator.gpu` gives a hardware adapter
+   * (a fallback, software one only with `allowSoftware`): the same instances. The report's `gpu` names the adapter,
+   * or is null when the CPU ran (no adapter, as in Node); a device that fails midway hands its layers back to the
+   * CPU and says why in `gpu.fallback`. Rejects when cancelled or on bad options.
+   */
+  matchGpu(template: Template, options?: MatchOptions, onLayer?: LayerCallback, gpu?: GpuChoice): Promise<MatchReport>;
 }
 
 export class Template extends Handle {

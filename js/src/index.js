@@ -3,9 +3,8 @@
 // SharedArrayBuffer and more than one core) and the plain build everywhere
 // else, Node included. Both builds export the same API; this file wraps it
 // so that callers never see which one runs, get real `Error`s for bad
-// arguments, and cannot use a handle after `free()`. A WebGPU build (a later
-// issue) fits the same scheme: one more directory with the same exports,
-// chosen in `instantiate` where `navigator.gpu` gives an adapter.
+// arguments, and cannot use a handle after `free()`. Both builds can also
+// run the cascade's layers on WebGPU (`Scene.matchGpu`).
 
 let loading = null;
 let loaded = null;
@@ -95,18 +94,31 @@ function call(f) {
   try {
     return f(glue);
   } catch (error) {
-    if (error instanceof WebAssembly.RuntimeError) {
-      let why = '';
-      try {
-        why = glue.lastPanicMessage() ?? '';
-      } catch {
-        // The message is a courtesy; the trap is what matters.
-      }
-      loaded.broken = `fast-reject: internal error (${why || error.message}); the module cannot be used any more: start a new worker or process`;
-      throw new Error(loaded.broken, { cause: error });
-    }
-    throw error;
+    throw trapped(glue, error);
   }
+}
+
+/** `call` for an async binding: the same errors, once the promise settles. */
+async function callAsync(f) {
+  const glue = module();
+  try {
+    return await f(glue);
+  } catch (error) {
+    throw trapped(glue, error);
+  }
+}
+
+/** The error to throw for `error` from the module: a trap marks it broken. */
+function trapped(glue, error) {
+  if (!(error instanceof WebAssembly.RuntimeError)) return error;
+  let why = '';
+  try {
+    why = glue.lastPanicMessage() ?? '';
+  } catch {
+    // The message is a courtesy; the trap is what matters.
+  }
+  loaded.broken = `fast-reject: internal error (${why || error.message}); the module cannot be used any more: start a new worker or process`;
+  return new Error(loaded.broken, { cause: error });
 }
 
 /**
@@ -203,6 +215,25 @@ export class Scene extends Handle {
     const scene = this.inner;
     const inner = template.inner;
     return call(() => scene.match(inner, options, onLayer));
+  }
+  /**
+   * Like `match`, with the volume and harmonics layers on WebGPU where
+   * `navigator.gpu` gives a hardware adapter (a fallback, software one only
+   * with `allowSoftware`): the same instances. Resolves to the report; its
+   * `gpu` names the adapter, or is null when the CPU ran (no adapter, as in
+   * Node). A device that fails midway hands its layers back to the CPU and
+   * says why in `gpu.fallback`.
+   */
+  matchGpu(template, options = {}, onLayer, { allowSoftware = false } = {}) {
+    if (!(template instanceof Template)) {
+      return Promise.reject(new TypeError('fast-reject: matchGpu needs a Template'));
+    }
+    if (onLayer !== undefined && typeof onLayer !== 'function') {
+      return Promise.reject(new TypeError('fast-reject: onLayer must be a function'));
+    }
+    const scene = this.inner;
+    const inner = template.inner;
+    return callAsync(() => scene.matchGpu(inner, options, onLayer, Boolean(allowSoftware)));
   }
 }
 

@@ -100,3 +100,23 @@ test('bad input is an Error and the module stays usable', async () => {
   assert.throws(() => scene.match(template), /freed/);
   scene.free(); // twice is harmless
 });
+
+test('matchGpu without an adapter (Node) searches on the CPU and finds what match finds', async () => {
+  await init();
+  const scene = Scene.fromBytes(sceneBytes);
+  const template = Template.fromBytes(templateBytes);
+  const cpu = scene.match(template);
+  const layers = [];
+  const report = await scene.matchGpu(template, {}, (stats) => { layers.push(stats); }, { allowSoftware: true });
+  assert.equal(report.gpu, null);
+  assert.equal(cpu.gpu, null);
+  assert.deepEqual(report.instances.map((i) => i.position), cpu.instances.map((i) => i.position));
+  assert.ok(layers.length >= report.stages.length);
+  await assert.rejects(scene.matchGpu(template, { resolutoin: 64 }), /resolutoin/);
+  await assert.rejects(scene.matchGpu(template, {}, () => false), /cancelled/);
+  await assert.rejects(scene.matchGpu(null), TypeError);
+  // The module is still usable.
+  assert.equal(scene.match(template).instances.length, cpu.instances.length);
+  template.free();
+  scene.free();
+});

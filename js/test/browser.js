@@ -24,6 +24,10 @@ const CHROMIUM_FLAGS = [
   '--disable-component-update',
   '--disable-sync',
   '--no-first-run',
+  // WebGPU on SwiftShader, Chromium's software adapter (Scene.matchGpu's
+  // tests; the page only uses it when told to allow a software adapter).
+  '--enable-unsafe-webgpu',
+  '--use-webgpu-adapter=swiftshader',
 ];
 
 /** The system Chromium (or $CHROMIUM), headless, with `extraArgs` besides the quiet flags. */

@@ -40,3 +40,22 @@ test('threaded build near its memory cap: a large grid runs, a larger one is an 
     /lower the resolution/,
   );
 });
+
+test('WebGPU from the threaded build in a worker: the same layers and instances as the CPU', { timeout: 300_000 }, async () => {
+  const [cpu, gpu] = await runInBrowser([
+    { build: 'threads', scene: 'zoo-bunny' },
+    { build: 'threads', scene: 'zoo-bunny', gpu: true },
+  ]);
+  assert.equal(cpu.gpu, null);
+  assert.ok(gpu.gpu?.adapter, 'no WebGPU adapter in the worker');
+  assert.equal(gpu.gpu.fallback, null);
+  assert.deepEqual(gpu.stages, cpu.stages);
+  assert.ok(cpu.instances.length > 0);
+  assert.deepEqual(
+    gpu.instances.map((i) => i.position),
+    cpu.instances.map((i) => i.position),
+  );
+  console.log(
+    `zoo-bunny in a worker: CPU (2 threads) ${cpu.wallMs.toFixed(0)} ms, WebGPU on ${gpu.gpu.adapter} ${gpu.wallMs.toFixed(0)} ms`,
+  );
+});

@@ -49,6 +49,9 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   const candidates: number = report.grid?.skin_voxels ?? report.surface?.vertices ?? 0;
   const agreement: number | null = report.instances[0]?.score ?? null;
   console.log(first, report.timings_ms.match, candidates, agreement);
+  const onGpu: MatchReport = await scene.matchGpu(template, {}, undefined, { allowSoftware: false });
+  const adapter: string | null = onGpu.gpu?.adapter ?? null;
+  console.log(adapter, onGpu.gpu?.fallback);
   scene.free();
   template.free();
   // @ts-expect-error: a resolution is a number

@@ -67,6 +67,12 @@ impl Gpu {
     /// [`Gpu::request`] without blocking: what a browser needs, where the
     /// adapter and device arrive on the event loop.
     pub async fn request_async(choice: AdapterChoice) -> Result<Option<Gpu>> {
+        // wgpu's instance panics where there is no `navigator.gpu` (Node,
+        // a shared worker): ask first.
+        #[cfg(target_arch = "wasm32")]
+        if !wgpu::util::is_browser_webgpu_supported().await {
+            return Ok(None);
+        }
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let options = wgpu::RequestAdapterOptions {
@@ -152,7 +158,12 @@ impl Gpu {
     /// The adapter's name and API, as reports show it.
     pub fn description(&self) -> String {
         let kind = if self.is_software() { ", software" } else { "" };
-        format!("{} ({:?}{kind})", self.info.name, self.info.backend)
+        // Browsers often withhold the adapter's description.
+        let name = match self.info.name.as_str() {
+            "" => "an unnamed adapter",
+            name => name,
+        };
+        format!("{name} ({:?}{kind})", self.info.backend)
     }
 
     /// Whether the adapter runs on the CPU (lavapipe, SwiftShader).

@@ -29,9 +29,13 @@ onmessage = async ({ data: job }) => {
     const scene = Scene.fromBytes(sceneBytes, { resolution: job.resolution });
     const template = Template.fromBytes(templateBytes);
     let layers = 0;
-    const report = scene.match(template, {}, () => {
+    const count = () => {
       layers += 1;
-    });
+    };
+    // `gpu`: the layers on WebGPU, the software adapter allowed.
+    const report = job.gpu
+      ? await scene.matchGpu(template, {}, count, { allowSoftware: true })
+      : scene.match(template, {}, count);
     const wallMs = performance.now() - start;
     template.free();
     scene.free();
@@ -42,6 +46,8 @@ onmessage = async ({ data: job }) => {
       wallMs,
       memoryBytes: memoryBytes(),
       instances: report.instances,
+      stages: report.stages.map(({ ms, ...counts }) => counts),
+      gpu: report.gpu,
       timings: report.timings_ms,
     });
   } catch (error) {
