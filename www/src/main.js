@@ -76,9 +76,15 @@ async function showWebGpu() {
   } catch {
     adapter = null;
   }
-  badge.textContent = adapter ? 'WebGPU: present (search runs on the CPU)' : 'WebGPU: not available';
-  badge.classList.toggle('on', !!adapter);
-  badge.dataset.webgpu = adapter ? 'yes' : 'no';
+  // A fallback adapter is software: slower than the CPU code, so unused.
+  const hardware = !!adapter && !adapter.info?.isFallbackAdapter;
+  badge.textContent = hardware
+    ? 'WebGPU: the search runs its layers on the GPU'
+    : adapter
+      ? 'WebGPU: software only (the search runs on the CPU)'
+      : 'WebGPU: not available (the search runs on the CPU)';
+  badge.classList.toggle('on', hardware);
+  badge.dataset.webgpu = hardware ? 'yes' : 'no';
 }
 
 // ---- scene -----------------------------------------------------------------
@@ -417,7 +423,9 @@ function showResults(report, wallMs) {
   $('progress-text').textContent = `Done: ${count} match${count === 1 ? '' : 'es'}${more}.`;
   $('total-time').textContent =
     `${report.timings_ms.total.toFixed(0)} ms in the matcher, ${wallMs.toFixed(0)} ms in the worker, ` +
-    `${report.threads} thread${report.threads === 1 ? '' : 's'}`;
+    `${report.threads} thread${report.threads === 1 ? '' : 's'}` +
+    (report.gpu ? `, layers on the GPU (${report.gpu.adapter})` : ', CPU only') +
+    (report.gpu?.fallback ? `; some went back to the CPU: ${report.gpu.fallback}` : '');
   const list = $('instance-list');
   report.instances.forEach((instance, index) => {
     const item = document.createElement('li');

@@ -1,8 +1,10 @@
 // The matcher's Web Worker: it owns the package's Scene and runs every search,
 // so the page never blocks. The package picks the threaded build itself when
-// the page is cross-origin isolated. A search cannot be interrupted from
-// outside while it runs (it is synchronous here), so the page cancels by
-// terminating this worker and starting a fresh one.
+// the page is cross-origin isolated, and runs the cascade's layers on WebGPU
+// where the browser gives a hardware adapter (Scene.matchGpu; the CPU
+// otherwise, with the same instances). A search cannot be interrupted from
+// outside while it runs, so the page cancels by terminating this worker and
+// starting a fresh one.
 //
 // Messages in:  {type: 'init'}
 //               {type: 'load', id, name, bytes, format}
@@ -29,7 +31,7 @@ function load({ id, bytes, format }) {
   postMessage({ type: 'loaded', id, triangles: next.triangles, ms: performance.now() - start });
 }
 
-function search({ id, template: spec, options }) {
+async function search({ id, template: spec, options }) {
   if (!scene) throw new Error('load a scene first');
   const template =
     spec.kind === 'selection'
@@ -37,7 +39,7 @@ function search({ id, template: spec, options }) {
       : Template.fromBytes(spec.bytes, { format: spec.format });
   try {
     const start = performance.now();
-    const report = scene.match(template, options, (stats) => {
+    const report = await scene.matchGpu(template, options, (stats) => {
       postMessage({ type: 'layer', id, stats });
     });
     postMessage({ type: 'result', id, report, wallMs: performance.now() - start });
@@ -54,7 +56,7 @@ onmessage = async ({ data }) => {
     } else if (data.type === 'load') {
       load(data);
     } else if (data.type === 'match') {
-      search(data);
+      await search(data);
     } else {
       throw new Error(`unknown message ${data.type}`);
     }
