@@ -8,11 +8,19 @@ use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::search::{MatchOptions, MatchReport, search, search_on_gpu};
 use fast_reject::{Scene, SceneOptions};
 
-/// Any adapter, lavapipe included; a machine with none fails, saying what
-/// to install, unless FAST_REJECT_SKIP_GPU=1 (never in CI).
-fn gpu() -> Option<Gpu> {
-    if std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1") {
+/// FAST_REJECT_SKIP_GPU=1 skips the GPU tests (never in CI).
+fn skipped() -> bool {
+    let skip = std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1");
+    if skip {
         eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
+    }
+    skip
+}
+
+/// Any adapter, lavapipe included; a machine with none fails, saying what
+/// to install, unless the GPU tests are skipped.
+fn gpu() -> Option<Gpu> {
+    if skipped() {
         return None;
     }
     Some(
@@ -58,4 +66,41 @@ fn the_gpu_finds_what_the_cpu_finds() {
     for name in ["zoo-bunny", "cluttered-bunny"] {
         assert_same_search(name, &gpu);
     }
+}
+
+#[test]
+fn a_device_too_small_for_the_grid_hands_its_layers_back_to_the_cpu() {
+    use fast_reject::gpu::wgpu;
+    if skipped() {
+        return;
+    }
+    // A device made by the caller, with storage bindings of 64 KiB: no
+    // part's grid fits, so every layer goes back to the CPU.
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
+        .expect("no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) or set FAST_REJECT_SKIP_GPU=1");
+    let descriptor = wgpu::DeviceDescriptor {
+        required_limits: wgpu::Limits {
+            max_storage_buffer_binding_size: 1 << 16,
+            ..wgpu::Limits::defaults()
+        },
+        ..Default::default()
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).unwrap();
+    let small = Gpu::new(device, queue, adapter.get_info()).unwrap();
+    let name = "zoo-bunny";
+    let scene = common::scene(name, &SceneOptions::DEFAULT);
+    let template = common::template(name, false);
+    let options = MatchOptions::DEFAULT;
+    let cpu = search(&scene, &template, &options, &mut ()).unwrap();
+    let report = search_on_gpu(&scene, &template, &options, &mut (), &small).unwrap();
+    let fallback = report.gpu.as_ref().and_then(|g| g.fallback.clone());
+    assert!(
+        fallback
+            .as_deref()
+            .is_some_and(|f| f.contains("binding limit")),
+        "{fallback:?}"
+    );
+    assert_eq!(report.instances, cpu.instances);
 }

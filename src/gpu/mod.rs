@@ -19,6 +19,9 @@ mod solid;
 mod volume;
 
 pub use solid::GpuSolid;
+/// The wgpu this crate is built with: a device handed to [`Gpu::new`] must
+/// come from it.
+pub use wgpu;
 
 use std::sync::{Arc, Mutex};
 
@@ -206,6 +209,10 @@ impl Gpu {
     async fn run_kernel(&self, d: Dispatch<'_>) -> std::result::Result<Vec<u8>, String> {
         use wgpu::util::DeviceExt;
         let device = &self.device;
+        // The device's complaints about this kernel come back here, in a
+        // browser too, where uncaptured errors arrive on the event loop.
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: d.params,
@@ -256,6 +263,11 @@ impl Gpu {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| e.to_string())?;
         let done = mapped.await;
+        for scope in [invalid, out_of_memory] {
+            if let Some(error) = scope.pop().await {
+                return Err(format!("the GPU refused a kernel: {error}"));
+            }
+        }
         self.check("running a kernel").map_err(|e| e.to_string())?;
         done.map_err(|e| format!("reading a kernel's output back: {e}"))?;
         let view = readback.get_mapped_range(..).map_err(|e| e.to_string())?;

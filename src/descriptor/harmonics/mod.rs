@@ -43,6 +43,7 @@ pub use sampler::{BLOCKS_PER_RADIUS, SphereSampler};
 pub use transform::{SphericalTransform, unfolded_tables};
 
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::batch::PreparedLayer;
 use super::{LayerBatch, LocalFuture};
@@ -140,7 +141,8 @@ pub struct HarmonicsDescriptor<'a> {
     /// with the batch's error bound, and the layers computed so far in
     /// order (what a point recomputed exactly replays).
     prepared: PreparedLayer<Signature>,
-    batch_error: Mutex<f64>,
+    /// (f64 bits: read by every point's `extend`, on any thread.)
+    batch_error: AtomicU64,
     done: Mutex<Vec<usize>>,
 }
 
@@ -174,7 +176,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             templates,
             threshold,
             prepared: PreparedLayer::new(),
-            batch_error: Mutex::new(0.0),
+            batch_error: AtomicU64::new(0),
             done: Mutex::new(Vec::new()),
         }
     }
@@ -190,7 +192,7 @@ impl<'a> HarmonicsDescriptor<'a> {
         given: Option<Signature>,
     ) -> Result<(), Ambiguous> {
         let error = match given {
-            Some(_) => *self.batch_error.lock().unwrap_or_else(|p| p.into_inner()),
+            Some(_) => f64::from_bits(self.batch_error.load(Ordering::Relaxed)),
             None => 0.0,
         };
         let excusable = layer >= self.clean_layers;
@@ -404,8 +406,10 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                 .lock()
                 .unwrap_or_else(|p| p.into_inner())
                 .push(layer);
-            *self.batch_error.lock().unwrap_or_else(|p| p.into_inner()) =
-                f64::from(batch.max_sphere_error());
+            self.batch_error.store(
+                f64::from(batch.max_sphere_error()).to_bits(),
+                Ordering::Relaxed,
+            );
             let Some(sorted) = self.prepared.begin(points) else {
                 return;
             };
