@@ -26,11 +26,15 @@ impl<T: Copy> PreparedLayer<T> {
         }
     }
 
-    /// Starts layer `layer` for `points`: forgets the previous layer's
-    /// values and returns the points sorted, the order the values must come
-    /// in, or `None` when there is nothing to compute (no points, or the
-    /// batch failed before).
-    pub(crate) fn begin(&self, points: &[u32]) -> Option<Vec<u32>> {
+    /// Starts a layer for `points`: forgets the previous layer's values and
+    /// returns the points sorted, the order the values must come in, with
+    /// their voxels in `voxels`; or `None` when there is nothing to compute
+    /// (no points, or the batch failed before).
+    pub(crate) fn begin(
+        &self,
+        points: &[u32],
+        voxels: &[[u16; 3]],
+    ) -> Option<(Vec<u32>, Vec<[u16; 3]>)> {
         *self.layer.write().unwrap_or_else(|p| p.into_inner()) = None;
         let failed = self
             .failure
@@ -42,7 +46,8 @@ impl<T: Copy> PreparedLayer<T> {
         }
         let mut sorted = points.to_vec();
         sorted.sort_unstable();
-        Some(sorted)
+        let at = sorted.iter().map(|&p| voxels[p as usize]).collect();
+        Some((sorted, at))
     }
 
     /// Keeps the values the batch computed for layer `layer` at the points

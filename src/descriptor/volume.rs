@@ -198,10 +198,9 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         batch: &'b dyn LayerBatch,
     ) -> LocalFuture<'b, ()> {
         Box::pin(async move {
-            let Some(sorted) = self.prepared.begin(points) else {
+            let Some((sorted, voxels)) = self.prepared.begin(points, self.points) else {
                 return;
             };
-            let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
             let counts = batch.ball_counts(&self.balls[layer], &voxels).await;
             self.prepared.finish(layer, sorted, counts);
         })

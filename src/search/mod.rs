@@ -26,12 +26,23 @@ pub fn search(
     options: &MatchOptions,
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
+    // With no batch, nothing waits.
+    crate::cascade::finished(search_with(scene, source, options, observer, None))
+}
+
+/// Either search, with the voxel layers on `gpu` where one is given.
+async fn search_with(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+    gpu: GpuRef<'_>,
+) -> Result<MatchReport> {
     options.validate()?;
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
-    // With no batch, nothing waits.
-    crate::cascade::finished(voxel::search_voxels(scene, source, options, observer, None))
+    voxel::search_voxels(scene, source, options, observer, gpu).await
 }
 
 /// [`search`] with the volume and harmonics layers computed on `gpu`:
@@ -60,11 +71,7 @@ pub async fn search_on_gpu_async(
     observer: &mut dyn Observer,
     gpu: &crate::gpu::Gpu,
 ) -> Result<MatchReport> {
-    options.validate()?;
-    if options.descriptor == DescriptorKind::Curvature {
-        return curvature::search_curvature(scene, source, options, observer);
-    }
-    voxel::search_voxels(scene, source, options, observer, Some(gpu)).await
+    search_with(scene, source, options, observer, Some(gpu)).await
 }
 
 /// The GPU a voxel search may use (nothing can be given without the

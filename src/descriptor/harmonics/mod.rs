@@ -410,10 +410,9 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                 f64::from(batch.max_sphere_error()).to_bits(),
                 Ordering::Relaxed,
             );
-            let Some(sorted) = self.prepared.begin(points) else {
+            let Some((sorted, voxels)) = self.prepared.begin(points, self.points) else {
                 return;
             };
-            let voxels: Vec<[u16; 3]> = sorted.iter().map(|&p| self.points[p as usize]).collect();
             let signatures = batch.sphere_signatures(&self.spheres[layer], &voxels).await;
             self.prepared.finish(layer, sorted, signatures);
         })
