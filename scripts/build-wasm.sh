@@ -41,7 +41,7 @@ esac
 # wasm-pack leaves a `*` .gitignore in each output, which npm pack would
 # honour and so drop the builds from the tarball.
 rm -f pkg/*/.gitignore pkg/*/package.json
-cp js/src/index.js js/src/index.d.ts pkg/
+cp js/src/index.js js/src/index.d.ts js/src/errors.js js/src/worker.js js/src/worker.d.ts js/src/search-thread.js pkg/
 mkdir -p pkg/bin
 cp js/src/bin/fast-reject.js pkg/bin/
 chmod +x pkg/bin/fast-reject.js

@@ -60,8 +60,8 @@ step "the hostile inputs of the reliability issue, for the JS tests"
 # js/test/hostile.test.js feeds every one to one module, then searches.
 cargo run --release --example hostile_files -- target/hostile
 
-step "JS API in Node (hostile inputs, scenes held past the memory), threaded build in Chromium"
-(cd js && node --test test/api.test.js test/hostile.test.js test/held-scenes.test.js test/browser.test.js)
+step "JS API in Node (the worker API, hostile inputs, scenes held past the memory), threaded build in Chromium"
+(cd js && node --test test/api.test.js test/worker.test.js test/hostile.test.js test/held-scenes.test.js test/browser.test.js)
 
 step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)

@@ -146,7 +146,16 @@ export interface GpuChoice {
   allowSoftware?: boolean;
 }
 
-/** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel. */
+/**
+ * A search stopped before its end: the progress callback returned `false` or
+ * threw (what it threw is the `cause`), or the caller cancelled it.
+ */
+export class CancelledError extends Error {
+  readonly name: 'CancelledError';
+  readonly code: 'cancelled';
+}
+
+/** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel: the search then throws (rejects with) a `CancelledError`. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
 declare abstract class Handle {
@@ -163,13 +172,13 @@ export class Scene extends Handle {
   /** Connected parts: the voxel search describes each point by its own part. */
   readonly parts: number;
   readonly triangles: number;
-  /** Finds every occurrence of `template`; throws when cancelled or on bad options. */
+  /** Finds every occurrence of `template`; throws a `CancelledError` when cancelled, an `Error` on bad options. */
   match(template: Template, options?: MatchOptions, onLayer?: LayerCallback): MatchReport;
   /**
    * Like `match`, with the volume and harmonics layers on WebGPU where `navigator.gpu` gives a hardware adapter
    * (a fallback, software one only with `allowSoftware`): the same instances. The report's `gpu` names the adapter,
    * or is null when the CPU ran (no adapter, as in Node); a device that fails midway hands its layers back to the
-   * CPU and says why in `gpu.fallback`. Rejects when cancelled or on bad options.
+   * CPU and says why in `gpu.fallback`. Rejects with a `CancelledError` when cancelled, an `Error` on bad options.
    */
   matchGpu(template: Template, options?: MatchOptions, onLayer?: LayerCallback, gpu?: GpuChoice): Promise<MatchReport>;
 }

@@ -6,6 +6,10 @@
 // arguments, and cannot use a handle after `free()`. Both builds can also
 // run the cascade's layers on WebGPU (`Scene.matchGpu`).
 
+import { CancelledError } from './errors.js';
+
+export { CancelledError };
+
 let loading = null;
 let loaded = null;
 
@@ -207,14 +211,21 @@ export class Scene extends Handle {
   get triangles() {
     return this.inner.triangles;
   }
+  /**
+   * Finds every occurrence of `template`. `onLayer(stats)` runs after each
+   * cascade layer; returning `false` or throwing stops the search with a
+   * `CancelledError` (a throw is its `cause`).
+   */
   match(template, options = {}, onLayer) {
-    if (!(template instanceof Template)) throw new TypeError('fast-reject: match needs a Template');
-    if (onLayer !== undefined && typeof onLayer !== 'function') {
-      throw new TypeError('fast-reject: onLayer must be a function');
-    }
+    checkSearch(template, onLayer, 'match');
     const scene = this.inner;
     const inner = template.inner;
-    return call(() => scene.match(inner, options, onLayer));
+    const progress = new Progress(onLayer);
+    try {
+      return call(() => scene.match(inner, options, progress.callback));
+    } catch (error) {
+      throw progress.explain(error);
+    }
   }
   /**
    * Like `match`, with the volume and harmonics layers on WebGPU where
@@ -224,16 +235,58 @@ export class Scene extends Handle {
    * Node). A device that fails midway hands its layers back to the CPU and
    * says why in `gpu.fallback`.
    */
-  matchGpu(template, options = {}, onLayer, { allowSoftware = false } = {}) {
-    if (!(template instanceof Template)) {
-      return Promise.reject(new TypeError('fast-reject: matchGpu needs a Template'));
-    }
-    if (onLayer !== undefined && typeof onLayer !== 'function') {
-      return Promise.reject(new TypeError('fast-reject: onLayer must be a function'));
-    }
+  async matchGpu(template, options = {}, onLayer, { allowSoftware = false } = {}) {
+    checkSearch(template, onLayer, 'matchGpu');
     const scene = this.inner;
     const inner = template.inner;
-    return callAsync(() => scene.matchGpu(inner, options, onLayer, Boolean(allowSoftware)));
+    const progress = new Progress(onLayer);
+    try {
+      return await callAsync(() => scene.matchGpu(inner, options, progress.callback, Boolean(allowSoftware)));
+    } catch (error) {
+      throw progress.explain(error);
+    }
+  }
+}
+
+function checkSearch(template, onLayer, what) {
+  if (!(template instanceof Template)) throw new TypeError(`fast-reject: ${what} needs a Template`);
+  if (onLayer !== undefined && typeof onLayer !== 'function') {
+    throw new TypeError('fast-reject: onLayer must be a function');
+  }
+}
+
+/**
+ * The progress callback as the module calls it: it remembers whether the
+ * caller cancelled and what the caller's callback threw, so that the
+ * module's error becomes a `CancelledError` that keeps the thrown value as
+ * its `cause` instead of a flattened message.
+ */
+class Progress {
+  #cancelled = false;
+  #threw = false;
+  #thrown;
+  constructor(onLayer) {
+    this.callback =
+      onLayer &&
+      ((stats) => {
+        try {
+          if (onLayer(stats) !== false) return true;
+        } catch (error) {
+          this.#threw = true;
+          this.#thrown = error;
+        }
+        this.#cancelled = true;
+        return false;
+      });
+  }
+  /** The error to throw for `error`, which the module threw. */
+  explain(error) {
+    if (!this.#cancelled) return error;
+    if (!this.#threw) return new CancelledError();
+    const why = this.#thrown?.message ?? String(this.#thrown);
+    return new CancelledError(`fast-reject: the search was cancelled: the progress callback threw: ${why}`, {
+      cause: this.#thrown,
+    });
   }
 }
 

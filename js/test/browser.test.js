@@ -59,3 +59,17 @@ test('WebGPU from the threaded build in a worker: the same layers and instances 
     `zoo-bunny in a worker: CPU (2 threads) ${cpu.wallMs.toFixed(0)} ms, WebGPU on ${gpu.gpu.adapter} ${gpu.wallMs.toFixed(0)} ms`,
   );
 });
+
+test('fast-reject/worker from the page: the threaded build, a cancel, then the same instances as plain', { timeout: 300_000 }, async () => {
+  const [plain, worker] = await runInBrowser([
+    { build: 'plain', scene: 'zoo-bunny' },
+    { api: 'worker', scene: 'zoo-bunny' },
+  ]);
+  assert.equal(worker.crossOriginIsolated, true);
+  assert.deepEqual(worker.info, { build: 'threads', threads: 2 });
+  assert.equal(worker.cancelled, 'CancelledError');
+  assert.equal(worker.layers, plain.layers);
+  assert.ok(plain.instances.length > 0);
+  assert.deepEqual(worker.instances, plain.instances);
+  console.log(`zoo-bunny through SearchWorker (threads, 2): ${worker.wallMs.toFixed(0)} ms`);
+});

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # `npm pack` of pkg/, installed into a scratch project as a user would:
 # Node resolves its `exports` and runs it, tsc type-checks a program against
-# its types (the JS entry included; a wrong call must be rejected), and Vite
-# bundles it for the browser with both wasm builds as assets.
+# its types (the JS entry included; a wrong call must be rejected), Vite
+# bundles it for the browser with both wasm builds as assets, and the
+# README's worker example runs as written in Node and, bundled by Vite, in
+# headless Chromium.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 tools=$repo/js/node_modules
@@ -33,9 +35,54 @@ node_modules/.bin/fast-reject demo --json | node -e "
   console.log('ok: fast-reject demo found 3 instances');
 "
 
+echo "-- the README's worker example, as written, in Node"
+# The first js block after the marker, from the README the tarball ships.
+awk '/<!-- example: worker -->/ { found = 1; next }
+     found && /^```js/ { inside = 1; next }
+     inside && /^```/ { exit }
+     inside { print }' node_modules/fast-reject/README.md > src/example.js
+test -s src/example.js || { echo "no worker example in the package README" >&2; exit 1; }
+cat > node-example.mjs <<'JS'
+import { readFile } from 'node:fs/promises';
+import { findCopies } from './src/example.js';
+const demo = 'node_modules/fast-reject/demo/';
+const [scene, template] = await Promise.all([readFile(demo + 'scene.glb'), readFile(demo + 'template.glb')]);
+const copies = await findCopies(scene, template);
+if (copies?.length !== 3) throw new Error('the demo has 3 mugs, the example found ' + copies?.length);
+const controller = new AbortController();
+controller.abort();
+if ((await findCopies(scene, template, controller.signal)) !== null) throw new Error('an aborted search was not cancelled');
+console.log('ok: the example found 3 mugs, and an aborted search returned null');
+// No terminate(): the idle worker must let Node exit.
+JS
+timeout 120 node node-example.mjs
+
 echo "-- tsc checks a program against the package's types"
 cat > src/main.ts <<'TS'
-import { init, Scene, Template, type MatchReport, type LayerStats, type MatchOptions, type SceneOptions } from 'fast-reject';
+import { init, Scene, Template, CancelledError, type MatchReport, type LayerStats, type MatchOptions, type SceneOptions } from 'fast-reject';
+import { SearchWorker, type SceneInfo, type WorkerInfo } from 'fast-reject/worker';
+
+export async function inWorker(sceneBytes: ArrayBuffer, signal: AbortSignal): Promise<number> {
+  const search = new SearchWorker({ backend: 'cpu', build: 'auto' });
+  const info: WorkerInfo = await search.ready();
+  const loaded: SceneInfo = await search.loadScene(sceneBytes, { resolution: info.defaults.scene.resolution });
+  try {
+    const report = await search.match({ center: [0, 0, 0], radius: loaded.voxelSize * 40 }, { layers: 4 }, {
+      signal,
+      onLayer: (layer) => layer.survivors > 0,
+    });
+    return report.instances.length;
+  } catch (error) {
+    if (error instanceof CancelledError && error.code === 'cancelled') return 0;
+    throw error;
+  } finally {
+    search.terminate();
+    // @ts-expect-error: the backends are 'auto', 'cpu' and 'gpu'
+    new SearchWorker({ backend: 'webgpu' });
+    // @ts-expect-error: a template is a file or a sphere, not both
+    void search.match({ bytes: sceneBytes, center: [0, 0, 0], radius: 1 });
+  }
+}
 
 export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): Promise<MatchReport> {
   const info = await init({ build: 'auto' });
@@ -76,10 +123,31 @@ node "$tools/typescript/bin/tsc" -p tsconfig.json
 # The same check with Node's own resolution of the exports map.
 node "$tools/typescript/bin/tsc" -p tsconfig.json --module nodenext --moduleResolution nodenext
 
-echo "-- Vite bundles it for the browser"
+echo "-- Vite bundles it for the browser, with the README's worker example"
+cat > src/browser.js <<'JS'
+import { findCopies } from './example.js';
+import { find } from './main.ts';
+
+const bytes = (url) => fetch(url).then((response) => response.arrayBuffer()).then((data) => new Uint8Array(data));
+// Kept in the bundle: the API used on the page's own thread.
+globalThis.findOnPage = find;
+globalThis.exampleResult = Promise.all([bytes('/demo/scene.glb'), bytes('/demo/template.glb')]).then(
+  async ([scene, template]) => {
+    const found = await findCopies(scene, template);
+    const controller = new AbortController();
+    const cancelled = findCopies(scene, template, controller.signal);
+    setTimeout(() => controller.abort(), 0);
+    return { found: found?.length ?? null, cancelled: await cancelled, isolated: globalThis.crossOriginIsolated };
+  },
+);
+JS
 cat > index.html <<'HTML'
-<!doctype html><script type="module" src="/src/main.ts"></script>
+<!doctype html><script type="module" src="/src/browser.js"></script>
 HTML
+mkdir -p public/demo
+cp node_modules/fast-reject/demo/*.glb public/demo/
+# What the README says Vite needs.
+echo "export default { worker: { format: 'es' } };" > vite.config.js
 node "$tools/vite/bin/vite.js" build --logLevel warn
 wasm_assets=$(find dist -name '*.wasm' | wc -l)
 if ((wasm_assets != 2)); then
@@ -88,3 +156,26 @@ if ((wasm_assets != 2)); then
   exit 1
 fi
 echo "ok: bundle with $(find dist -name '*.js' | wc -l) script(s) and $wasm_assets wasm assets"
+
+# The bundle in headless Chromium, served cross-origin isolated as the
+# README asks: the worker runs the example, then a search aborted at once.
+cat > browser-example.mjs <<JS
+import { launchChromium } from '$repo/js/test/browser.js';
+import { startServer } from '$repo/www/server.js';
+const { server, origin } = await startServer({ port: 0, roots: { '/': '$scratch/app/dist' } });
+const browser = await launchChromium();
+try {
+  const page = await browser.newPage();
+  const errors = [];
+  page.on('pageerror', (error) => errors.push(error));
+  await page.goto(origin + '/index.html');
+  const result = await page.evaluate(() => globalThis.exampleResult);
+  if (errors.length) throw errors[0];
+  if (result.found !== 3 || result.cancelled !== null || !result.isolated) throw new Error(JSON.stringify(result));
+  console.log('ok: the bundled example found 3 mugs in Chromium, and the aborted search returned null');
+} finally {
+  await browser.close();
+  server.close();
+}
+JS
+timeout 300 node browser-example.mjs

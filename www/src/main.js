@@ -1,8 +1,9 @@
-// The viewer page: wires files, the 3D view, the search worker and the panel.
-// It opens on the embedded demo (a scene and a template served from /demo/)
-// and searches it at once.
+// The viewer page: wires files, the 3D view, the package's search worker
+// (fast-reject/worker) and the panel. It opens on the embedded demo (a scene
+// and a template served from /demo/) and searches it at once.
+import { CancelledError, SearchWorker } from '/pkg/worker.js';
+
 import { FileProblem, readModel } from './files.js';
-import { Cancelled, Matcher } from './matcher.js';
 import { View, parseModel } from './view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -31,7 +32,9 @@ const view = new View($('viewport'), {
   onPick: (point) => placeSelection(point),
   onWheelRadius: (factor) => setSelectionRadius((state.selection?.radius ?? sliderRadius()) * factor),
 });
-const matcher = new Matcher({ onStatus: showBuild });
+// WebGPU where the browser has a hardware adapter; the threaded build where
+// the page is cross-origin isolated.
+const matcher = new SearchWorker();
 
 function setStatus(status) {
   state.status = status;
@@ -104,7 +107,7 @@ async function openScene(files) {
       restore = 'cancelled';
     }
     $('progress-text').textContent = `Loading ${model.name} into the matcher…`;
-    await matcher.load(model);
+    await matcher.loadScene(model.bytes, { format: model.format });
   } catch (error) {
     object?.traverse((node) => node.geometry?.dispose());
     showMessage(`Could not open ${model?.name ?? 'the file'}: ${error.message} The current scene is unchanged.`);
@@ -327,7 +330,8 @@ async function runSearch() {
       : 'Preparing: voxelizing the scene and describing the template…';
   clearResults();
   try {
-    const reply = await matcher.match(template, options, (stats) => {
+    const start = performance.now();
+    const onLayer = (stats) => {
       if (generation !== state.generation) return;
       layers.push(stats);
       $('progress-bar').value = Math.min(layers.length / expectedLayers, 1);
@@ -335,15 +339,16 @@ async function runSearch() {
         `${stats.descriptor} layer ${stats.layer} (r = ${formatLength(stats.radius)}): ` +
         `${stats.survivors.toLocaleString()} of ${stats.candidates.toLocaleString()} candidates survive`;
       appendLayerRow(stats);
-    });
+    };
+    const report = await matcher.match(template, options, { onLayer });
     if (generation !== state.generation) return;
-    state.report = reply.report;
+    state.report = report;
     $('progress-bar').value = 1;
-    showResults(reply.report, reply.wallMs);
+    showResults(report, performance.now() - start);
     setStatus('done');
   } catch (error) {
     if (generation !== state.generation) return;
-    if (error instanceof Cancelled) {
+    if (error instanceof CancelledError) {
       $('progress-text').textContent = 'Cancelled.';
       setStatus('cancelled');
     } else {
@@ -484,7 +489,7 @@ async function start() {
   setTemplateKind('model');
   showWebGpu();
   try {
-    await matcher.ready();
+    showBuild(await matcher.ready());
     const [scene, template] = await Promise.all([fetchFile('/demo/scene.glb'), fetchFile('/demo/template.glb')]);
     if (!(await openScene([{ ...scene, name: 'demo scene.glb' }]))) return;
     state.modelTemplate = { kind: 'model', format: 'glb', name: 'demo mug (template.glb)', bytes: template.bytes };

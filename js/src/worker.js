@@ -1,0 +1,244 @@
+// `fast-reject/worker`: the search in a worker of its own, so that the
+// calling thread never blocks. A Web Worker in the browser (the threaded
+// build where the page is cross-origin isolated, WebGPU where the browser
+// has a hardware adapter), a worker_threads Worker in Node. The worker keeps
+// the loaded scene between searches. A search cannot be interrupted from
+// outside while it computes, so cancelling terminates the worker and starts
+// a fresh one, which loads the same scene again before the next request.
+import { CancelledError } from './errors.js';
+
+export { CancelledError };
+
+const isNode = typeof process !== 'undefined' && !!process.versions?.node;
+const BACKENDS = ['auto', 'cpu', 'gpu'];
+
+/** Bytes given as Uint8Array, ArrayBuffer or any typed array, as a Uint8Array. */
+function asBytes(bytes, what) {
+  if (bytes instanceof Uint8Array) return bytes;
+  if (bytes instanceof ArrayBuffer) return new Uint8Array(bytes);
+  if (ArrayBuffer.isView(bytes)) return new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  throw new TypeError(`fast-reject: the ${what} must be a Uint8Array or an ArrayBuffer, got ${typeof bytes}`);
+}
+
+/** The error a worker's `{name, message}` stands for. */
+function revive({ name, message }) {
+  if (name === 'CancelledError') return new CancelledError(message);
+  const error = name === 'TypeError' ? new TypeError(message) : new Error(message);
+  return error;
+}
+
+/**
+ * One worker, started at once. Requests run one at a time in the order
+ * they are made; `cancel()` stops the running one and everything queued
+ * behind it.
+ */
+export class SearchWorker {
+  #options;
+  /** {post(message), terminate(), hold(busy)}, or null when none runs. */
+  #thread = null;
+  #ready = null;
+  #pending = new Map();
+  #nextId = 1;
+  /** The last scene that loaded: its bytes and options, to load it again after a restart. */
+  #scene = null;
+  #closed = false;
+
+  /**
+   * `build` and `threads` as for `init()`; `backend`: 'auto' (default:
+   * WebGPU on a hardware adapter, the CPU otherwise), 'cpu', or 'gpu' (any
+   * adapter, a software one included; the CPU when there is none).
+   */
+  constructor({ build = 'auto', threads, backend = 'auto' } = {}) {
+    if (!BACKENDS.includes(backend)) {
+      throw new TypeError(`fast-reject: backend must be 'auto', 'cpu' or 'gpu', got ${String(backend)}`);
+    }
+    this.#options = { build, threads, backend };
+    this.#start();
+  }
+
+  #start() {
+    // A worker that was replaced may still report (its exit, a last
+    // message): only the current one is heard.
+    let thread = null;
+    const receive = (message) => thread === this.#thread && this.#receive(message);
+    const fail = (why) => thread === this.#thread && this.#fail(why);
+    thread = isNode ? startNodeThread(receive, fail) : startWebWorker(receive, fail);
+    this.#thread = thread;
+    const { build, threads, backend } = this.#options;
+    let ready = this.#request({ type: 'init', build, threads, backend }).then(({ info }) => info);
+    const scene = this.#scene;
+    if (scene) {
+      // It parsed before, so it parses again; callers queue behind it.
+      ready = ready.then(async (info) => {
+        await this.#request({ type: 'load', ...scene });
+        return info;
+      });
+    }
+    this.#ready = ready;
+    // Unhandled until a caller asks: the caller's request rejects instead.
+    ready.catch(() => {});
+  }
+
+  #request(message, onLayer) {
+    if (this.#closed) return Promise.reject(new Error('fast-reject: this SearchWorker was terminated'));
+    if (!this.#thread) this.#start();
+    const id = this.#nextId++;
+    return new Promise((resolve, reject) => {
+      this.#pending.set(id, { resolve, reject, onLayer });
+      this.#thread.hold(true);
+      this.#thread.post({ ...message, id });
+    });
+  }
+
+  #receive(message) {
+    const job = this.#pending.get(message.id);
+    if (!job) return;
+    if (message.type === 'layer') {
+      let goOn;
+      try {
+        goOn = job.onLayer?.(message.stats) !== false;
+      } catch (error) {
+        this.#cancel(
+          new CancelledError(
+            `fast-reject: the search was cancelled: the progress callback threw: ${error?.message ?? String(error)}`,
+            { cause: error },
+          ),
+        );
+        return;
+      }
+      if (!goOn) this.#cancel(new CancelledError());
+      return;
+    }
+    this.#settled(message.id);
+    if (message.type === 'error') job.reject(revive(message.error));
+    else job.resolve(message);
+  }
+
+  #settled(id) {
+    this.#pending.delete(id);
+    if (this.#pending.size === 0) this.#thread?.hold(false);
+  }
+
+  /** The worker died (it could not start, or ran out of memory): every request fails, the next one starts a new worker. */
+  #fail(why) {
+    this.#thread?.terminate();
+    this.#thread = null;
+    const error = new Error(`fast-reject: the search worker failed: ${why}`);
+    for (const job of this.#pending.values()) job.reject(error);
+    this.#pending.clear();
+  }
+
+  #cancel(error) {
+    this.#thread?.terminate();
+    this.#thread = null;
+    const pending = [...this.#pending.values()];
+    this.#pending.clear();
+    for (const job of pending) job.reject(error);
+    if (!this.#closed) this.#start();
+  }
+
+  /** Build information once the worker is up: `build`, `threads`, `memoryLimitBytes`, and `defaults` (every option's default). */
+  ready() {
+    if (!this.#ready || !this.#thread) this.#start();
+    return this.#ready;
+  }
+
+  /**
+   * Parses a scene in the worker and keeps it for the next searches. On
+   * failure the previous scene stays loaded. The bytes are copied, not
+   * transferred: the caller keeps them, and so does this object, to load
+   * the scene again after a cancel.
+   */
+  async loadScene(bytes, options = {}) {
+    const scene = { bytes: asBytes(bytes, 'scene').slice(), options };
+    await this.ready();
+    const reply = await this.#request({ type: 'load', ...scene });
+    this.#scene = scene;
+    return reply.scene;
+  }
+
+  /**
+   * Searches the loaded scene for `template`: `{bytes, format?}` (a model)
+   * or `{center, radius}` (the part of the scene inside a sphere).
+   * `onLayer(stats)` after every cascade layer (returning `false` or
+   * throwing cancels); `signal` an AbortSignal that cancels. A cancelled
+   * search rejects with a `CancelledError`.
+   */
+  async match(template, options = {}, { onLayer, signal } = {}) {
+    if (onLayer !== undefined && typeof onLayer !== 'function') {
+      throw new TypeError('fast-reject: onLayer must be a function');
+    }
+    const spec = template?.center
+      ? { center: Array.from(template.center, Number), radius: Number(template.radius) }
+      : { bytes: asBytes(template?.bytes, 'template'), format: template?.format };
+    if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
+    const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
+    signal?.addEventListener('abort', abort, { once: true });
+    try {
+      await this.ready();
+      const reply = await this.#request({ type: 'match', template: spec, options }, onLayer);
+      return reply.report;
+    } finally {
+      signal?.removeEventListener('abort', abort);
+    }
+  }
+
+  /** Stops the running request and every queued one (they reject with a `CancelledError`); the worker restarts with the scene. */
+  cancel() {
+    this.#cancel(new CancelledError());
+  }
+
+  /** Stops the worker for good; pending requests reject. */
+  terminate() {
+    this.#closed = true;
+    this.#cancel(new CancelledError('fast-reject: the SearchWorker was terminated'));
+  }
+}
+
+/** A module Web Worker, written the way bundlers recognize (they bundle the worker's script). */
+function startWebWorker(receive, fail) {
+  const worker = new Worker(new URL('./search-thread.js', import.meta.url), { type: 'module' });
+  worker.onmessage = ({ data }) => receive(data);
+  worker.onerror = (event) => {
+    event.preventDefault();
+    fail(event.message || 'it could not start (is the package built and served with its files?)');
+  };
+  return {
+    post: (message) => worker.postMessage(message),
+    terminate: () => worker.terminate(),
+    hold: () => {},
+  };
+}
+
+/** A worker_threads Worker; it keeps Node running only while a request is pending. */
+function startNodeThread(receive, fail) {
+  const thread = nodeThreads().then(({ Worker }) => {
+    // Not a literal: browser bundlers must not take this for an asset.
+    const script = './search-thread.js';
+    const worker = new Worker(new URL(script, import.meta.url));
+    worker.on('message', receive);
+    worker.on('error', (error) => fail(error?.message ?? String(error)));
+    worker.on('exit', (code) => {
+      if (!ended) fail(`it exited with code ${code}`);
+    });
+    return worker;
+  });
+  let ended = false;
+  thread.catch((error) => fail(error?.message ?? String(error)));
+  return {
+    post: (message) => thread.then((worker) => worker.postMessage(message)),
+    terminate: () => {
+      ended = true;
+      thread.then((worker) => worker.terminate());
+    },
+    hold: (busy) => thread.then((worker) => (busy ? worker.ref() : worker.unref())),
+  };
+}
+
+let threadsModule = null;
+function nodeThreads() {
+  // A computed specifier: bundlers for the browser must not resolve it.
+  const name = 'node:worker_threads';
+  threadsModule ??= import(/* @vite-ignore */ /* webpackIgnore: true */ name);
+  return threadsModule;
+}

@@ -1,0 +1,155 @@
+// `fast-reject/worker` in Node (worker_threads): the same instances as the
+// API on the calling thread, progress per layer, every way of cancelling
+// rejecting with a CancelledError at once, and a worker that keeps its scene
+// through cancels and broken files.
+import assert from 'node:assert/strict';
+import { readFile } from 'node:fs/promises';
+import { test } from 'node:test';
+
+import { CancelledError, Scene, Template, init } from '../../pkg/index.js';
+import { CancelledError as WorkerCancelledError, SearchWorker } from '../../pkg/worker.js';
+
+const shared = new URL('../../../shared/scenes/', import.meta.url);
+const sceneBytes = await readFile(new URL('zoo-bunny/scene.glb', shared));
+const templateBytes = await readFile(new URL('zoo-bunny/template.glb', shared));
+const positions = (instances) => instances.map((i) => i.position);
+
+/** The instances the calling thread's API finds, the reference. */
+async function onThisThread() {
+  await init();
+  const scene = Scene.fromBytes(sceneBytes);
+  const template = Template.fromBytes(templateBytes);
+  try {
+    return scene.match(template);
+  } finally {
+    template.free();
+    scene.free();
+  }
+}
+
+test('one class for cancels, whichever entry point threw it', () => {
+  assert.equal(WorkerCancelledError, CancelledError);
+});
+
+test('a search in the worker finds what the calling thread finds, with progress per layer', async () => {
+  const reference = await onThisThread();
+  const search = new SearchWorker();
+  try {
+    const info = await search.ready();
+    assert.equal(info.build, 'plain');
+    assert.equal(info.defaults.match.descriptor, 'volume+harmonics');
+    const scene = await search.loadScene(sceneBytes);
+    assert.equal(scene.parts, 11);
+    assert.ok(scene.triangles > 0 && scene.resolution === 512);
+    const layers = [];
+    const report = await search.match({ bytes: templateBytes }, {}, { onLayer: (stats) => void layers.push(stats) });
+    assert.ok(reference.instances.length > 0);
+    assert.deepEqual(positions(report.instances), positions(reference.instances));
+    assert.ok(report.instancePositions instanceof Float64Array);
+    assert.ok(layers.length >= report.stages.length && layers.every((l) => l.candidates >= l.survivors));
+    // The CPU backend, chosen, is the same search; a selection sphere too.
+    const cpu = new SearchWorker({ backend: 'cpu' });
+    await cpu.loadScene(sceneBytes);
+    const again = await cpu.match({ bytes: new Uint8Array(templateBytes) });
+    assert.deepEqual(positions(again.instances), positions(report.instances));
+    const [x, y, z] = report.instances[0].position;
+    const picked = await cpu.match({ center: [x, y, z], radius: report.template.radius });
+    assert.ok(picked.instances.length >= report.instances.length);
+    cpu.terminate();
+  } finally {
+    search.terminate();
+  }
+});
+
+test('every way of cancelling rejects with a CancelledError, and the scene stays loaded', async () => {
+  const search = new SearchWorker({ backend: 'cpu' });
+  try {
+    await search.loadScene(sceneBytes);
+    // false from the callback.
+    await assert.rejects(search.match({ bytes: templateBytes }, {}, { onLayer: () => false }), CancelledError);
+    // A throw: kept as the cause, not flattened into the message only.
+    const mine = new RangeError('stop here');
+    await assert.rejects(
+      search.match({ bytes: templateBytes }, {}, {
+        onLayer: () => {
+          throw mine;
+        },
+      }),
+      (error) => error instanceof CancelledError && error.cause === mine && /stop here/.test(error.message),
+    );
+    // An AbortSignal, aborted before and during the search.
+    await assert.rejects(
+      search.match({ bytes: templateBytes }, {}, { signal: AbortSignal.abort('before') }),
+      (error) => error instanceof CancelledError && error.cause === 'before',
+    );
+    const controller = new AbortController();
+    let layersAfterAbort = 0;
+    const running = search.match({ bytes: templateBytes }, {}, {
+      signal: controller.signal,
+      onLayer: () => {
+        if (controller.signal.aborted) layersAfterAbort += 1;
+        else controller.abort('during');
+      },
+    });
+    await assert.rejects(running, (error) => error instanceof CancelledError && error.cause === 'during');
+    // cancel(): the running search and the one queued behind it.
+    const first = search.match({ bytes: templateBytes });
+    const second = search.match({ bytes: templateBytes });
+    search.cancel();
+    await assert.rejects(first, CancelledError);
+    await assert.rejects(second, CancelledError);
+    // The worker was replaced and has the scene again.
+    const report = await search.match({ bytes: templateBytes });
+    assert.equal(report.instances.length, 4);
+    assert.equal(layersAfterAbort, 0, 'the cancelled worker still reported layers');
+  } finally {
+    search.terminate();
+  }
+});
+
+test('bad input rejects with a readable Error and keeps the loaded scene', async () => {
+  const search = new SearchWorker({ backend: 'cpu' });
+  try {
+    await assert.rejects(search.match({ bytes: templateBytes }), /load a scene/);
+    await search.loadScene(sceneBytes);
+    await assert.rejects(search.loadScene(new Uint8Array(64)), (error) => {
+      return error instanceof Error && !(error instanceof CancelledError) && /unrecognized mesh data/.test(error.message);
+    });
+    await assert.rejects(search.match({ bytes: new Uint8Array(10) }), /unrecognized mesh data/);
+    await assert.rejects(search.match({ bytes: templateBytes }, { resolutoin: 64 }), /resolutoin/);
+    await assert.rejects(search.match({ bytes: 'scene.glb' }), TypeError);
+    await assert.rejects(search.match({ bytes: templateBytes }, {}, { onLayer: 3 }), TypeError);
+    assert.throws(() => new SearchWorker({ backend: 'webgpu' }), /backend/);
+    // Still the zoo: the broken file replaced nothing.
+    assert.equal((await search.match({ bytes: templateBytes })).instances.length, 4);
+  } finally {
+    search.terminate();
+  }
+  await assert.rejects(search.match({ bytes: templateBytes }), /terminated/);
+});
+
+test('the calling thread API: a cancel is a CancelledError with the thrown value as its cause', async () => {
+  await init();
+  const scene = Scene.fromBytes(sceneBytes, { resolution: 128 });
+  const template = Template.fromBytes(templateBytes);
+  try {
+    assert.throws(() => scene.match(template, {}, () => false), CancelledError);
+    const mine = new Error('from the callback');
+    assert.throws(
+      () =>
+        scene.match(template, {}, () => {
+          throw mine;
+        }),
+      (error) => error instanceof CancelledError && error.cause === mine && error.code === 'cancelled',
+    );
+    await assert.rejects(scene.matchGpu(template, {}, () => false), CancelledError);
+    // Not a cancel: a bad option is a plain Error.
+    assert.throws(
+      () => scene.match(template, { layers: -1 }),
+      (error) => !(error instanceof CancelledError),
+    );
+  } finally {
+    template.free();
+    scene.free();
+  }
+});
