@@ -20,6 +20,13 @@ function asBytes(bytes, what) {
   throw new TypeError(`fast-reject: the ${what} must be a Uint8Array or an ArrayBuffer, got ${typeof bytes}`);
 }
 
+/** What the worker is sent for a template: a sphere, or the file's bytes and format. */
+function templateSpec(template) {
+  return template?.center
+    ? { center: Array.from(template.center, Number), radius: Number(template.radius) }
+    : { bytes: asBytes(template?.bytes, 'template'), format: template?.format };
+}
+
 /** The error a worker's `{name, message}` stands for. */
 function revive({ name, message }) {
   if (name === 'CancelledError') return new CancelledError(message);
@@ -65,12 +72,12 @@ export class SearchWorker {
     thread = isNode ? startNodeThread(receive, fail) : startWebWorker(receive, fail);
     this.#thread = thread;
     const { build, threads, backend } = this.#options;
-    let ready = this.#request({ type: 'init', build, threads, backend }).then(({ info }) => info);
+    let ready = this.#post({ type: 'init', build, threads, backend }).then(({ info }) => info);
     const scene = this.#scene;
     if (scene) {
-      // It parsed before, so it parses again; callers queue behind it.
+      // It parsed before, so it parses again, before any caller's request.
       ready = ready.then(async (info) => {
-        await this.#request({ type: 'load', ...scene });
+        await this.#post({ type: 'load', ...scene });
         return info;
       });
     }
@@ -79,15 +86,38 @@ export class SearchWorker {
     ready.catch(() => {});
   }
 
+  /**
+   * A caller's request: pending (so that a cancel rejects it) from the
+   * moment it is made, and posted once the worker is up and has its scene.
+   */
   #request(message, onLayer) {
     if (this.#closed) return Promise.reject(new Error('fast-reject: this SearchWorker was terminated'));
     if (!this.#thread) this.#start();
+    const thread = this.#thread;
+    const { id, settled } = this.#register(onLayer);
+    this.#ready.then(
+      () => {
+        if (this.#thread === thread && this.#pending.has(id)) thread.post({ ...message, id });
+      },
+      (error) => this.#settle(id, (job) => job.reject(error)),
+    );
+    return settled;
+  }
+
+  /** Posts a message at once: the worker's own start (init, the scene again). */
+  #post(message) {
+    const { id, settled } = this.#register();
+    this.#thread.post({ ...message, id });
+    return settled;
+  }
+
+  #register(onLayer) {
     const id = this.#nextId++;
-    return new Promise((resolve, reject) => {
+    const settled = new Promise((resolve, reject) => {
       this.#pending.set(id, { resolve, reject, onLayer });
-      this.#thread.hold(true);
-      this.#thread.post({ ...message, id });
     });
+    this.#thread.hold(true);
+    return { id, settled };
   }
 
   #receive(message) {
@@ -109,14 +139,19 @@ export class SearchWorker {
       if (!goOn) this.#cancel(new CancelledError());
       return;
     }
-    this.#settled(message.id);
-    if (message.type === 'error') job.reject(revive(message.error));
-    else job.resolve(message);
+    this.#settle(message.id, (done) => {
+      if (message.type === 'error') done.reject(revive(message.error));
+      else done.resolve(message);
+    });
   }
 
-  #settled(id) {
+  /** Ends request `id` with `finish(job)`, if it is still pending. */
+  #settle(id, finish) {
+    const job = this.#pending.get(id);
+    if (!job) return;
     this.#pending.delete(id);
     if (this.#pending.size === 0) this.#thread?.hold(false);
+    finish(job);
   }
 
   /** The worker died (it could not start, or ran out of memory): every request fails, the next one starts a new worker. */
@@ -124,8 +159,9 @@ export class SearchWorker {
     this.#thread?.terminate();
     this.#thread = null;
     const error = new Error(`fast-reject: the search worker failed: ${why}`);
-    for (const job of this.#pending.values()) job.reject(error);
+    const pending = [...this.#pending.values()];
     this.#pending.clear();
+    for (const job of pending) job.reject(error);
   }
 
   #cancel(error) {
@@ -139,7 +175,8 @@ export class SearchWorker {
 
   /** Build information once the worker is up: `build`, `threads`, `memoryLimitBytes`, and `defaults` (every option's default). */
   ready() {
-    if (!this.#ready || !this.#thread) this.#start();
+    if (this.#closed) return Promise.reject(new Error('fast-reject: this SearchWorker was terminated'));
+    if (!this.#thread) this.#start();
     return this.#ready;
   }
 
@@ -149,12 +186,32 @@ export class SearchWorker {
    * transferred: the caller keeps them, and so does this object, to load
    * the scene again after a cancel.
    */
-  async loadScene(bytes, options = {}) {
-    const scene = { bytes: asBytes(bytes, 'scene').slice(), options };
-    await this.ready();
-    const reply = await this.#request({ type: 'load', ...scene });
-    this.#scene = scene;
-    return reply.scene;
+  loadScene(bytes, options = {}) {
+    let scene;
+    try {
+      scene = { bytes: asBytes(bytes, 'scene').slice(), options };
+    } catch (error) {
+      return Promise.reject(error);
+    }
+    return this.#request({ type: 'load', ...scene }).then((reply) => {
+      this.#scene = scene;
+      return reply.scene;
+    });
+  }
+
+  /**
+   * Parses a template in the worker and forgets it: rejects with the
+   * reason a search with it would fail at once (a broken file, a sphere
+   * with NaN), so that a page can refuse it before it replaces a good one.
+   */
+  checkTemplate(template) {
+    let spec;
+    try {
+      spec = templateSpec(template);
+    } catch (error) {
+      return Promise.reject(error);
+    }
+    return this.#request({ type: 'check', template: spec }).then(() => undefined);
   }
 
   /**
@@ -164,23 +221,22 @@ export class SearchWorker {
    * throwing cancels); `signal` an AbortSignal that cancels. A cancelled
    * search rejects with a `CancelledError`.
    */
-  async match(template, options = {}, { onLayer, signal } = {}) {
-    if (onLayer !== undefined && typeof onLayer !== 'function') {
-      throw new TypeError('fast-reject: onLayer must be a function');
+  match(template, options = {}, { onLayer, signal } = {}) {
+    let spec;
+    try {
+      if (onLayer !== undefined && typeof onLayer !== 'function') {
+        throw new TypeError('fast-reject: onLayer must be a function');
+      }
+      spec = templateSpec(template);
+      if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
+    } catch (error) {
+      return Promise.reject(error);
     }
-    const spec = template?.center
-      ? { center: Array.from(template.center, Number), radius: Number(template.radius) }
-      : { bytes: asBytes(template?.bytes, 'template'), format: template?.format };
-    if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
     const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
     signal?.addEventListener('abort', abort, { once: true });
-    try {
-      await this.ready();
-      const reply = await this.#request({ type: 'match', template: spec, options }, onLayer);
-      return reply.report;
-    } finally {
-      signal?.removeEventListener('abort', abort);
-    }
+    return this.#request({ type: 'match', template: spec, options }, onLayer)
+      .then((reply) => reply.report)
+      .finally(() => signal?.removeEventListener('abort', abort));
   }
 
   /** Stops the running request and every queued one (they reject with a `CancelledError`); the worker restarts with the scene. */

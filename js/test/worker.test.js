@@ -101,6 +101,12 @@ test('every way of cancelling rejects with a CancelledError, and the scene stays
     // The worker was replaced and has the scene again.
     const report = await search.match({ bytes: templateBytes });
     assert.equal(report.instances.length, 4);
+    // A request cancelled by the same task that made it, on a worker that
+    // is up and idle, is cancelled too (not posted to the next worker).
+    const made = search.match({ bytes: templateBytes });
+    search.cancel();
+    await assert.rejects(made, CancelledError);
+    assert.equal((await search.match({ bytes: templateBytes })).instances.length, 4);
     assert.equal(layersAfterAbort, 0, 'the cancelled worker still reported layers');
   } finally {
     search.terminate();
@@ -116,6 +122,9 @@ test('bad input rejects with a readable Error and keeps the loaded scene', async
       return error instanceof Error && !(error instanceof CancelledError) && /unrecognized mesh data/.test(error.message);
     });
     await assert.rejects(search.match({ bytes: new Uint8Array(10) }), /unrecognized mesh data/);
+    await assert.rejects(search.checkTemplate({ bytes: new Uint8Array(10) }), /unrecognized mesh data/);
+    await assert.rejects(search.checkTemplate({ center: [0, Number.NaN, 0], radius: 1 }), /finite|NaN/);
+    await search.checkTemplate({ bytes: templateBytes, format: 'glb' });
     await assert.rejects(search.match({ bytes: templateBytes }, { resolutoin: 64 }), /resolutoin/);
     await assert.rejects(search.match({ bytes: 'scene.glb' }), TypeError);
     await assert.rejects(search.match({ bytes: templateBytes }, {}, { onLayer: 3 }), TypeError);
@@ -126,6 +135,7 @@ test('bad input rejects with a readable Error and keeps the loaded scene', async
     search.terminate();
   }
   await assert.rejects(search.match({ bytes: templateBytes }), /terminated/);
+  await assert.rejects(search.ready(), /terminated/);
 });
 
 test('the calling thread API: a cancel is a CancelledError with the thrown value as its cause', async () => {
@@ -143,10 +153,11 @@ test('the calling thread API: a cancel is a CancelledError with the thrown value
       (error) => error instanceof CancelledError && error.cause === mine && error.code === 'cancelled',
     );
     await assert.rejects(scene.matchGpu(template, {}, () => false), CancelledError);
-    // Not a cancel: a bad option is a plain Error.
+    // Not a cancel: a bad option is a plain Error, naming the option as
+    // JavaScript spells it.
     assert.throws(
-      () => scene.match(template, { layers: -1 }),
-      (error) => !(error instanceof CancelledError),
+      () => scene.match(template, { volumeThreshold: -1 }),
+      (error) => !(error instanceof CancelledError) && /invalid option volumeThreshold: must be a positive number/.test(error.message),
     );
   } finally {
     template.free();
