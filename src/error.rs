@@ -287,6 +287,18 @@ impl Error {
         }
     }
 
+    /// The message, with an option named as the caller's surface spells
+    /// it (`--volume-threshold` on the command line, `volumeThreshold` in
+    /// JavaScript) rather than in the core's words ("volume threshold").
+    pub fn describe_with(&self, spell: impl Fn(&str) -> String) -> String {
+        match self {
+            Error::InvalidOption { name, message } => {
+                format!("invalid option {}: {message}", spell(name))
+            }
+            other => other.to_string(),
+        }
+    }
+
     /// Shorthand for an [`Error::InvalidOption`].
     pub(crate) fn invalid_option(name: &'static str, message: impl Into<String>) -> Error {
         Error::InvalidOption {

@@ -252,6 +252,17 @@ fn errors_exit_non_zero_with_a_message() {
             ],
             "--threads",
         ),
+        // An option is named by its flag, not in the core's words.
+        (
+            vec![
+                "match",
+                demo_scene,
+                "--select",
+                "0,0,0,0.5",
+                "--volume-threshold=-1",
+            ],
+            "invalid option --volume-threshold: must be a positive number",
+        ),
     ];
     for (args, expected) in cases {
         let out = cli(&args);

@@ -164,8 +164,15 @@ fn bad_input_is_an_error_and_the_module_stays_usable() {
             r#"{"layers": 0.5}"#,
             "invalid option layers: invalid type: floating point `0.5`, expected a whole number",
         ),
-        (r#"{"groupRadius": -1}"#, "group radius"),
-        (r#"{"verifyThreshold": 2}"#, "verify threshold"),
+        // Named as JavaScript spells them, not in the core's words.
+        (
+            r#"{"groupRadius": -1}"#,
+            "invalid option groupRadius: must be",
+        ),
+        (
+            r#"{"verifyThreshold": 2}"#,
+            "invalid option verifyThreshold: must",
+        ),
         (r#"{"volumeThreshold": "high"}"#, "expected a number"),
         (r#"{"resolution": 16384}"#, "lower the resolution"),
         ("42", "must be an object"),

@@ -65,7 +65,7 @@ test('bad input is an Error and the module stays usable', async () => {
   for (const [options, message] of [
     [{ descriptor: 'sift' }, /descriptor/],
     [{ layers: Number.NaN }, /layers/],
-    [{ harmonicsThreshold: -1 }, /harmonics threshold/],
+    [{ harmonicsThreshold: -1 }, /invalid option harmonicsThreshold: must be a positive number/],
     [{ resolution: 16384 }, /lower the resolution/],
     [{ typo: 1 }, /unknown match option 'typo'/],
   ]) {

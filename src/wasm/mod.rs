@@ -142,7 +142,7 @@ pub fn free_bytes() -> f64 {
 
 /// A core error as a JS `Error` with the core's message.
 fn js_error(error: Error) -> JsError {
-    JsError::new(&error.to_string())
+    JsError::new(&error.describe_with(options::js_name))
 }
 
 /// Parses a mesh in the named format (or the one its content shows), with

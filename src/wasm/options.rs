@@ -179,6 +179,21 @@ fn invalid(key: &str, error: &serde_json::Error) -> JsError {
     JsError::new(&format!("invalid option {key}: {}", plain(error)))
 }
 
+/// An option's name in the core's words ("volume threshold") as
+/// JavaScript spells it (`volumeThreshold`).
+pub fn js_name(words: &str) -> String {
+    let mut name = String::with_capacity(words.len());
+    for (i, word) in words.split(' ').enumerate() {
+        let mut chars = word.chars();
+        match chars.next() {
+            Some(first) if i > 0 => name.extend(first.to_uppercase().chain(chars)),
+            Some(first) => name.extend(std::iter::once(first).chain(chars)),
+            None => {}
+        }
+    }
+    name
+}
+
 /// serde's message in JavaScript's words.
 fn plain(error: &serde_json::Error) -> String {
     error

@@ -138,7 +138,7 @@ function printTable(report, build) {
   lines.push('', `${report.instances.length} instance(s):`);
   report.instances.forEach((inst, i) => {
     const p = inst.position.map((v) => v.toFixed(4)).join(', ');
-    lines.push(`  #${i + 1} at (${p})  distance ${inst.distance.toFixed(4)}${inst.score === null ? '' : `  agreement ${inst.score.toFixed(3)}`}  support ${inst.support}`);
+    lines.push(`  #${i + 1} at (${p})  distance ${inst.distance.toFixed(4)}${inst.score === null ? '' : `  score ${inst.score.toFixed(3)}`}  support ${inst.support}`);
   });
   const tm = report.timings_ms;
   lines.push(

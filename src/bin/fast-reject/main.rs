@@ -145,12 +145,12 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         };
         let load = start.elapsed().as_secs_f64() * 1e3;
         let scene = Scene::new(scene_mesh, &scene_options)
-            .map_err(|e| format!("scene '{}': {e}", args.scene.display()))?;
+            .map_err(|e| format!("scene '{}': {}", args.scene.display(), described(&e)))?;
         let mut report = match &gpu {
             Some(gpu) => search_on_gpu(&scene, &source, &options, &mut (), gpu),
             None => search(&scene, &source, &options, &mut ()),
         }
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| described(&e))?;
         report.timings.load = load;
         Ok(report)
     };
@@ -163,6 +163,11 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         _ => job()?,
     };
     print_report(&report, args.json, descriptor)
+}
+
+/// An error in the command line's words: an option by its flag.
+fn described(error: &fast_reject::Error) -> String {
+    error.describe_with(|name| format!("--{}", name.replace(' ', "-")))
 }
 
 /// The embedded demo: a few rotated mugs among other objects.

@@ -66,7 +66,7 @@ impl fmt::Display for Table<'_> {
                 inst.distance,
             )?;
             if let Some(score) = inst.score {
-                write!(f, "  agreement {score:.3}")?;
+                write!(f, "  score {score:.3}")?;
             }
             writeln!(f, "  support {}", inst.support)?;
         }
