@@ -29,6 +29,14 @@ build_threads() {
     CARGO_UNSTABLE_BUILD_STD=panic_abort,std CARGO_TARGET_DIR=target-wasm-threads \
     wasm-pack build --release --target web --no-pack \
     --out-dir pkg/threads --out-name fast_reject -- --no-default-features --features threads,gpu
+  # wasm-bindgen-rayon 1.3 starts each pool worker with wasm-bindgen's old
+  # positional init(module, memory), which prints a deprecation warning in
+  # every worker; the object form is the same call.
+  local helpers
+  helpers=$(find pkg/threads/snippets -name 'workerHelpers*.js')
+  grep -q 'await pkg.default(data.module, data.memory);' $helpers ||
+    { echo "build-wasm: wasm-bindgen-rayon's worker start changed; check for the init warning" >&2; exit 1; }
+  sed -i 's/await pkg.default(data.module, data.memory);/await pkg.default({ module_or_path: data.module, memory: data.memory });/' $helpers
 }
 
 mkdir -p pkg

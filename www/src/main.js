@@ -4,7 +4,7 @@
 import { CancelledError, SearchWorker } from '/pkg/worker.js';
 
 import { FileProblem, readModel } from './files.js';
-import { View, parseModel } from './view.js';
+import { View, parseModel, renderPreview } from './view.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -29,7 +29,8 @@ const state = {
 };
 
 const view = new View($('viewport'), {
-  onPick: (point) => placeSelection(point),
+  onPick: (point) => pickPoint(point),
+  onFocus: (point) => focusPoint(point),
   onWheelRadius: (factor) => setSelectionRadius((state.selection?.radius ?? sliderRadius()) * factor),
 });
 // WebGPU where the browser has a hardware adapter; the threaded build where
@@ -43,11 +44,21 @@ function setStatus(status) {
 
 // ---- messages ----------------------------------------------------------
 
-function showMessage(text, kind = 'error') {
+/** Shows a message; `action` ({label, run}) adds a button that does what it suggests. */
+function showMessage(text, kind = 'error', action = null) {
   state.lastMessage = text;
   $('message-text').textContent = text;
   $('message').className = kind;
   $('message').hidden = false;
+  const button = $('message-action');
+  button.hidden = !action;
+  button.textContent = action?.label ?? '';
+  button.onclick = action
+    ? () => {
+        dismissMessage();
+        action.run();
+      }
+    : null;
 }
 function dismissMessage() {
   state.lastMessage = null;
@@ -100,17 +111,26 @@ async function openScene(files) {
   try {
     setStatus('loading');
     model = await readModel(files);
-    $('progress-text').textContent = `Reading ${model.name}…`;
-    object = await parseModel(model);
     if (state.running) {
       cancelSearch();
       restore = 'cancelled';
     }
+    // The package reads it first: its checks say what is wrong with a file
+    // in words; three.js's would be its internals.
     $('progress-text').textContent = `Loading ${model.name} into the matcher…`;
     await matcher.loadScene(model.bytes, { format: model.format });
+    $('progress-text').textContent = `Reading ${model.name} for the view…`;
+    try {
+      object = await parseModel(model);
+    } catch (error) {
+      // The worker holds the new scene now: give it back the old one.
+      if (state.scene) await matcher.loadScene(state.scene.bytes, { format: state.scene.format });
+      throw error;
+    }
   } catch (error) {
     object?.traverse((node) => node.geometry?.dispose());
-    showMessage(`Could not open ${model?.name ?? 'the file'}: ${error.message} The current scene is unchanged.`);
+    const message = error instanceof FileProblem ? error.message : `Could not open ${model?.name ?? 'the file'}: ${sentence(error.message)}`;
+    showMessage(`${message} The current scene is unchanged.`);
     $('progress-text').textContent = '\u00a0';
     setStatus(restore);
     return false;
@@ -119,6 +139,9 @@ async function openScene(files) {
   state.scene = model;
   state.selection = null;
   state.report = null;
+  // The demo's mug means nothing in another scene; a template the user
+  // opened is kept.
+  if (state.modelTemplate?.demo) setModelTemplate(null);
   view.setModel(object, upAxisFor(object));
   showUpAxis();
   $('scene-name').textContent = `${model.name}`;
@@ -130,16 +153,43 @@ async function openScene(files) {
   return true;
 }
 
+/**
+ * Opens a template file. Both the package and three.js read it before it
+ * replaces the current template, so a broken file keeps the one that works.
+ */
 async function openTemplate(files) {
+  let model;
+  let object;
   try {
-    const model = await readModel(files);
-    state.modelTemplate = { kind: 'model', ...model };
-    $('template-name').textContent = model.name;
-    setTemplateKind('model');
-    await runSearch();
+    model = await readModel(files);
+    await matcher.checkTemplate(model);
+    object = await parseModel(model);
   } catch (error) {
-    showMessage(error instanceof FileProblem ? error.message : `Could not open the template: ${error.message}`);
+    const message = error instanceof FileProblem ? error.message : `Could not open ${model?.name ?? 'the template'}: ${sentence(error.message)}`;
+    const kept = state.modelTemplate ? ` The template is still ${state.modelTemplate.name}.` : '';
+    showMessage(message + kept);
+    return false;
   }
+  setModelTemplate({ kind: 'model', ...model, object });
+  dismissMessage();
+  setTemplateKind('model');
+  await runSearch();
+  return true;
+}
+
+/** Shows `template` ({kind: 'model', name, format, bytes, object}, or null) as the file template. */
+function setModelTemplate(template) {
+  state.modelTemplate = template;
+  $('template-name').textContent = template?.name ?? 'none';
+  view.setTemplate(template?.object ?? null);
+  $('template-preview').hidden = !template;
+  if (template) renderPreview($('template-preview'), template.object, view.up);
+}
+
+/** A message from a library as a sentence: capitalized, with a full stop. */
+function sentence(text) {
+  const trimmed = String(text).trim();
+  return /[.!?]$/.test(trimmed) ? trimmed : `${trimmed}.`;
 }
 
 $('scene-input').addEventListener('change', async (event) => {
@@ -170,11 +220,45 @@ viewport.addEventListener('dragover', (event) => event.preventDefault());
 // (and lose the page).
 window.addEventListener('dragover', (event) => event.preventDefault());
 window.addEventListener('drop', (event) => event.preventDefault());
+/** Which half of the view a drop at `event` lands on: the left takes a scene, the right a template. */
+function dropTarget(event) {
+  const rect = viewport.getBoundingClientRect();
+  return event.clientX > rect.left + rect.width / 2 ? 'template' : 'scene';
+}
+viewport.addEventListener('dragover', (event) => {
+  const target = dropTarget(event);
+  $('drop-scene').classList.toggle('target', target === 'scene');
+  $('drop-template').classList.toggle('target', target === 'template');
+});
 viewport.addEventListener('drop', async (event) => {
   event.preventDefault();
   dragDepth = 0;
   $('drop-overlay').hidden = true;
-  await openScene([...event.dataTransfer.files]);
+  const files = [...event.dataTransfer.files];
+  if (dropTarget(event) === 'template') await openTemplate(files);
+  else await openScene(files);
+});
+
+// ---- view tools: fit, x-ray, keys ---------------------------------------------
+
+$('fit-button').addEventListener('click', () => view.frame());
+$('xray').addEventListener('change', () => {
+  view.xray = $('xray').checked;
+});
+window.addEventListener('keydown', (event) => {
+  // Keys typed into a field are the field's.
+  if (event.target.closest?.('input, select, textarea') || event.ctrlKey || event.metaKey || event.altKey) return;
+  if (event.key === 'f' || event.key === 'F' || event.key === 'Home') {
+    view.frame();
+  } else if (event.key === 'x' || event.key === 'X') {
+    $('xray').checked = !$('xray').checked;
+    view.xray = $('xray').checked;
+  } else if (event.key === 'Escape' && state.running) {
+    cancelSearch();
+  } else {
+    return;
+  }
+  event.preventDefault();
 });
 
 /** The chosen up axis, or the view's guess for `object` when it is 'auto'. */
@@ -203,10 +287,14 @@ function setTemplateKind(kind) {
   document.querySelector(`input[name="template-kind"][value="${kind}"]`).checked = true;
   $('model-template').hidden = kind !== 'model';
   $('selection-template').hidden = kind !== 'selection';
+  $('selection-mouse-hints').hidden = kind !== 'selection';
   view.setSelection(kind === 'selection' ? state.selection : null);
 }
 for (const input of document.querySelectorAll('input[name="template-kind"]')) {
-  input.addEventListener('change', () => setTemplateKind(templateKind()));
+  input.addEventListener('change', () => {
+    setTemplateKind(templateKind());
+    markStale();
+  });
 }
 
 /** The slider is logarithmic, from 0.2% to 50% of the scene's radius. */
@@ -225,6 +313,7 @@ function setSelectionRadius(radius) {
   if (state.selection) {
     state.selection = { ...state.selection, radius };
     view.setSelection(state.selection);
+    markStale();
   }
   $('radius-value').textContent = formatLength(radius);
   $('radius-slider').value = String(Math.round((Math.log(radius / low) / Math.log(high / low)) * 1000));
@@ -232,12 +321,51 @@ function setSelectionRadius(radius) {
 
 $('radius-slider').addEventListener('input', () => setSelectionRadius(sliderRadius()));
 
+/**
+ * A click on the surface: places the selection sphere, in selection mode
+ * only (a click in model mode must not change what is searched for).
+ */
+function pickPoint(point) {
+  if (templateKind() !== 'selection') {
+    $('progress-text').textContent = 'Choose "Selection sphere" to pick a part of the scene with a click.';
+    return;
+  }
+  state.selectionBeforeClick = { selection: state.selection, stale: !$('results-stale').hidden, at: performance.now() };
+  placeSelection(point);
+}
+
+/** A double-click: the view turns to the point; the sphere goes back to where it was before the double-click's first click. */
+function focusPoint(point) {
+  const before = state.selectionBeforeClick;
+  if (templateKind() === 'selection' && before && performance.now() - before.at < 800) {
+    state.selection = before.selection;
+    view.setSelection(state.selection);
+    showSelectionHint();
+    $('results-stale').hidden = !before.stale;
+  }
+  state.selectionBeforeClick = null;
+  view.flyTo(point, view.distanceToTarget());
+}
+
 function placeSelection(point) {
-  if (templateKind() !== 'selection') setTemplateKind('selection');
   state.selection = { center: point, radius: state.selection?.radius ?? sliderRadius() };
   view.setSelection(state.selection);
   $('radius-value').textContent = formatLength(state.selection.radius);
-  $('selection-hint').textContent = `Sphere at (${point.map((v) => v.toFixed(3)).join(', ')}). Search to find every part like it.`;
+  showSelectionHint();
+  markStale();
+}
+
+function showSelectionHint() {
+  const point = state.selection?.center;
+  $('selection-hint').textContent = point
+    ? `Sphere at (${point.map((v) => v.toFixed(3)).join(', ')}). Search to find every part like it.`
+    : 'Click the surface to place the sphere; Shift + wheel or the slider sets its radius.';
+}
+
+/** The matches shown were found for another template: say so until the next search. */
+function markStale() {
+  if (!state.report || state.running) return;
+  $('results-stale').hidden = false;
 }
 
 /** What the worker needs for the current template, or null with a message. */
@@ -313,6 +441,8 @@ async function runSearch() {
   if (state.running) cancelSearch();
   const generation = ++state.generation;
   const options = searchOptions();
+  state.lastOptions = options;
+  state.lastTemplate = template;
   // Two stages, or the curvature search's sampled pass and its final pass
   // (a coarse mesh runs the final pass alone; the bar then fills at the end).
   const sampled = options.descriptor === 'curvature' && options.curvatureSpacing > 0;
@@ -329,15 +459,25 @@ async function runSearch() {
       ? 'Preparing: welding the surface and describing the template…'
       : 'Preparing: voxelizing the scene and describing the template…';
   clearResults();
+  const start = performance.now();
+  // The elapsed time ticks while a step takes long (preparing, one layer).
+  let step = $('progress-text').textContent;
+  const showStep = (text) => {
+    step = text;
+    $('progress-text').textContent = `${text} (${((performance.now() - start) / 1000).toFixed(1)} s)`;
+  };
+  const ticker = setInterval(() => {
+    if (generation === state.generation) showStep(step);
+  }, 250);
   try {
-    const start = performance.now();
     const onLayer = (stats) => {
       if (generation !== state.generation) return;
       layers.push(stats);
       $('progress-bar').value = Math.min(layers.length / expectedLayers, 1);
-      $('progress-text').textContent =
-        `${stats.descriptor} layer ${stats.layer} (r = ${formatLength(stats.radius)}): ` +
-        `${stats.survivors.toLocaleString()} of ${stats.candidates.toLocaleString()} candidates survive`;
+      showStep(
+        `${stats.descriptor} layer ${stats.layer} of 6 (r = ${formatLength(stats.radius)}): ` +
+          `${stats.survivors.toLocaleString()} of ${stats.candidates.toLocaleString()} candidates survive`,
+      );
       appendLayerRow(stats);
     };
     const report = await matcher.match(template, options, { onLayer });
@@ -353,10 +493,21 @@ async function runSearch() {
       setStatus('cancelled');
     } else {
       $('progress-text').textContent = 'The search failed.';
-      showMessage(error.message);
+      // A template too small for the grid: the message says what resolution
+      // it needs, and one click searches at it.
+      const needed = /raise the resolution to at least (\d+)/.exec(error.message)?.[1];
+      const action = needed && {
+        label: `Search at ${needed}`,
+        run: () => {
+          $('resolution').value = needed;
+          runSearch();
+        },
+      };
+      showMessage(error.message, 'error', action);
       setStatus('error');
     }
   } finally {
+    clearInterval(ticker);
     if (generation === state.generation) {
       state.running = false;
       $('cancel-button').disabled = true;
@@ -395,6 +546,10 @@ for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curv
 // ---- results -------------------------------------------------------------
 
 function clearResults() {
+  $('results-stale').hidden = true;
+  $('results-legend').hidden = true;
+  $('export-button').disabled = true;
+  view.setGhosts([]);
   view.setMatches(new Float64Array(), 0);
   $('progress-bar').value = 0;
   $('instance-list').replaceChildren();
@@ -425,23 +580,34 @@ function showResults(report, wallMs) {
   const count = report.instances.length;
   $('match-count').textContent = String(count);
   const more = shown < count ? ` (the best ${shown} are coloured)` : '';
-  $('progress-text').textContent = `Done: ${count} match${count === 1 ? '' : 'es'}${more}.`;
+  $('progress-text').textContent = `Done: ${count} match${count === 1 ? '' : 'es'}${more} in ${(wallMs / 1000).toFixed(2)} s.`;
+  // The scene was read once, before the first search: its load time is
+  // not this search's.
+  const searchMs = report.timings_ms.total - report.timings_ms.load;
   $('total-time').textContent =
-    `${report.timings_ms.total.toFixed(0)} ms in the matcher, ${wallMs.toFixed(0)} ms in the worker, ` +
+    `${searchMs.toFixed(0)} ms searching, ${wallMs.toFixed(0)} ms in all, ` +
     `${report.threads} thread${report.threads === 1 ? '' : 's'}` +
     (report.gpu ? `, layers on the GPU (${report.gpu.adapter})` : ', CPU only') +
     (report.gpu?.fallback ? `; some went back to the CPU: ${report.gpu.fallback}` : '');
+  const order = layerOrderNote(report.stages);
+  if (order) $('total-time').textContent += `. ${order}`;
+  state.names = report.instances.map((instance) => view.nameAt(instance.position));
+  const poses = report.instances.map((instance) => instance.pose).filter(Boolean);
+  view.setGhosts(templateKind() === 'model' ? poses : []);
+  $('results-legend').hidden = count === 0;
+  $('export-button').disabled = false;
   const list = $('instance-list');
   report.instances.forEach((instance, index) => {
     const item = document.createElement('li');
     const button = document.createElement('button');
     button.type = 'button';
-    const score = instance.score === null ? '' : ` · ${(instance.score * 100).toFixed(0)}% fit`;
-    button.innerHTML = '<span class="rank"></span><span class="distance"></span><span class="detail"></span>';
+    button.innerHTML = '<span class="rank"></span><span class="name"></span><span class="distance"></span><span class="detail"></span>';
     button.querySelector('.rank').textContent = `#${index + 1}`;
-    button.querySelector('.distance').textContent = `d ${instance.distance.toFixed(3)}`;
-    button.querySelector('.detail').textContent = `${instance.support} pts${score}`;
-    button.title = `position ${instance.position.map((v) => v.toFixed(3)).join(', ')}`;
+    button.querySelector('.name').textContent = state.names[index] ?? '';
+    const score = instance.score === null ? '' : `score ${formatShare(instance.score)} · `;
+    button.querySelector('.distance').textContent = `${score}distance ${instance.distance.toFixed(3)}`;
+    button.querySelector('.detail').textContent = `support ${instance.support}`;
+    button.title = `position ${instance.position.map((v) => formatLength(v)).join(', ')}`;
     button.addEventListener('click', () => focusInstance(index));
     item.append(button);
     list.append(item);
@@ -450,7 +616,7 @@ function showResults(report, wallMs) {
   for (const [stage, ms] of Object.entries(report.timings_ms)) {
     const row = document.createElement('tr');
     row.innerHTML = '<td></td><td></td>';
-    row.cells[0].textContent = stage;
+    row.cells[0].textContent = stage === 'load' ? 'load (once, with the scene)' : stage;
     row.cells[1].textContent = `${ms.toFixed(1)} ms`;
     timings.append(row);
   }
@@ -459,7 +625,59 @@ function showResults(report, wallMs) {
     $('layer-table').tBodies[0].replaceChildren();
     report.stages.forEach(appendLayerRow);
   }
+  // The list sits below the search settings: bring it into view.
+  $('results').scrollIntoView({ block: 'nearest', behavior: 'smooth' });
 }
+
+/** A share in 0..1 as a percentage that tells 99.6% from 100%. */
+function formatShare(share) {
+  const percent = share * 100;
+  return `${percent >= 99.95 ? '100' : percent.toFixed(1)}%`;
+}
+
+/** Why a stage's layers are not in order of radius, when they are not. */
+function layerOrderNote(stages) {
+  const seen = new Map();
+  for (const { descriptor, layer } of stages) {
+    if (!seen.has(descriptor)) seen.set(descriptor, []);
+    const layers = seen.get(descriptor);
+    if (!layers.includes(layer)) layers.push(layer);
+  }
+  const shuffled = [...seen].filter(([, layers]) => layers.some((layer, i) => i > 0 && layer < layers[i - 1]));
+  if (shuffled.length === 0) return '';
+  const names = shuffled.map(([name, layers]) => `${name} (${layers.join(', ')})`).join(' and ');
+  return `Layers ran in the order ${names}: all cost the same, so the one that rejects the most candidates goes first; the result does not depend on it`;
+}
+
+/** The report as a file: what was searched, with what, and each match's name. */
+function exportReport() {
+  const report = state.report;
+  if (!report) return;
+  const { instancePositions, ...plain } = report;
+  void instancePositions;
+  const template = state.lastTemplate;
+  const document_ = {
+    ...plain,
+    scene: state.scene?.name ?? null,
+    // c_T and r_k as the search found them, and what the person gave.
+    template: {
+      ...plain.template,
+      ...(template?.kind === 'selection' ? { selection: { center: template.center, radius: template.radius } } : { file: template?.name ?? null }),
+    },
+    options: state.lastOptions,
+    instances: plain.instances.map((instance, i) => ({ name: state.names?.[i] ?? null, ...instance })),
+  };
+  const blob = new Blob([JSON.stringify(document_, null, 2)], { type: 'application/json' });
+  const link = document.createElement('a');
+  link.href = URL.createObjectURL(blob);
+  link.download = `${(state.scene?.name ?? 'scene').replace(/\.[^.]+$/, '')}-matches.json`;
+  link.click();
+  setTimeout(() => URL.revokeObjectURL(link.href), 1000);
+}
+$('export-button').addEventListener('click', exportReport);
+$('show-ghosts').addEventListener('change', () => {
+  view.ghostsVisible = $('show-ghosts').checked;
+});
 
 function focusInstance(index) {
   const report = state.report;
@@ -492,8 +710,8 @@ async function start() {
     showBuild(await matcher.ready());
     const [scene, template] = await Promise.all([fetchFile('/demo/scene.glb'), fetchFile('/demo/template.glb')]);
     if (!(await openScene([{ ...scene, name: 'demo scene.glb' }]))) return;
-    state.modelTemplate = { kind: 'model', format: 'glb', name: 'demo mug (template.glb)', bytes: template.bytes };
-    $('template-name').textContent = state.modelTemplate.name;
+    const mug = { kind: 'model', format: 'glb', name: 'demo mug (template.glb)', bytes: template.bytes, demo: true };
+    setModelTemplate({ ...mug, object: await parseModel(mug) });
     await runSearch();
   } catch (error) {
     showMessage(`The viewer could not start: ${error.message}`);
@@ -528,6 +746,25 @@ globalThis.viewer = {
   /** Matches coloured on the mesh now. */
   get highlighted() {
     return view.highlighted;
+  },
+  /** Matches the template model is drawn at. */
+  get ghosts() {
+    return view.ghostCount;
+  },
+  get xray() {
+    return view.xray;
+  },
+  /** The camera's distance to the point it orbits (tests check fit and focus with it). */
+  get cameraDistance() {
+    return view.distanceToTarget();
+  },
+  /** Each match's part name, as the list shows it. */
+  get names() {
+    return state.names ?? [];
+  },
+  /** The point the camera orbits. */
+  get cameraTarget() {
+    return view.target;
   },
   project: (point) => view.project(point),
   /** Hides the message and forgets it. */

@@ -1,6 +1,7 @@
 // The 3D view: three.js rendering of the scene in one clay material whose
 // shader colours the surface inside each match's ball (the matched region,
-// not a marker), the selection sphere, picking, framing and flights.
+// not a marker), the template placed at each match's pose (a ghost), the
+// selection sphere, picking, names, framing, flights and an x-ray mode.
 // It renders on demand, not every frame.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -15,6 +16,9 @@ export const MAX_HIGHLIGHTS = 2048;
 
 const CLAY = 0xc8c2b8;
 const MATCH = new THREE.Color(0xff8a1f);
+const GHOST = 0x4fd1ff;
+/** Opacity of the scene's surface outside the matches in x-ray mode. */
+const XRAY_OPACITY = 0.18;
 const FOCUS = new THREE.Color(0xffe14d);
 
 /** Parses mesh bytes into a three.js object in file coordinates (as the package reads them). */
@@ -76,9 +80,18 @@ export class View {
   #frameRequested = false;
   #flight = null;
   #pointerDown = null;
+  /** World boxes of the scene's meshes, with the names they are shown by. */
+  #parts = [];
+  /** The template's meshes in its own coordinates, for the ghosts. */
+  #template = null;
+  #ghosts = new THREE.Group();
 
-  /** `onPick(point)` gets the surface point under a click (not a drag). */
-  constructor(container, { onPick = () => {}, onWheelRadius = () => {} } = {}) {
+  /**
+   * `onPick(point)` gets the surface point under a click (not a drag, not
+   * the second click of a double-click); `onFocus(point)` the one under a
+   * double-click.
+   */
+  constructor(container, { onPick = () => {}, onFocus = () => {}, onWheelRadius = () => {} } = {}) {
     const renderer = new THREE.WebGLRenderer({ antialias: true });
     renderer.setPixelRatio(Math.min(globalThis.devicePixelRatio ?? 1, 2));
     renderer.toneMapping = THREE.NeutralToneMapping;
@@ -104,17 +117,23 @@ export class View {
     this.#selection = selectionSphere();
     this.#selection.visible = false;
     this.#scene.add(this.#selection);
+    this.#scene.add(this.#ghosts);
 
     const canvas = renderer.domElement;
     canvas.addEventListener('pointerdown', (event) => {
       this.#pointerDown = event.button === 0 ? { x: event.clientX, y: event.clientY } : null;
     });
-    canvas.addEventListener('pointerup', (event) => {
+    canvas.addEventListener('click', (event) => {
       const down = this.#pointerDown;
       this.#pointerDown = null;
       if (!down || Math.hypot(event.clientX - down.x, event.clientY - down.y) > 4) return;
+      if (event.detail > 1) return; // the second click of a double-click
       const point = this.pick(event.clientX, event.clientY);
       if (point) onPick(point);
+    });
+    canvas.addEventListener('dblclick', (event) => {
+      const point = this.pick(event.clientX, event.clientY);
+      if (point) onFocus(point);
     });
     // Shift + wheel sizes the selection sphere; the plain wheel zooms. This
     // listener runs before OrbitControls' and keeps the event from it.
@@ -182,6 +201,11 @@ export class View {
     });
     this.#root = object;
     this.#scene.add(object);
+    // Picking and names need the nodes' world matrices now, not at the
+    // first render.
+    object.updateMatrixWorld(true);
+    this.#parts = namedParts(object);
+    this.setGhosts([]);
     this.setMatches(new Float64Array(), 0);
     this.setSelection(null);
     this.#up = up;
@@ -256,6 +280,8 @@ export class View {
   /** The surface point under a client position, as [x, y, z], or null. */
   pick(clientX, clientY) {
     if (!this.#root) return null;
+    // The camera may have moved (framed, flown) since the last render.
+    this.#camera.updateMatrixWorld();
     const rect = this.#renderer.domElement.getBoundingClientRect();
     const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
     const raycaster = new THREE.Raycaster();
@@ -264,8 +290,97 @@ export class View {
     return hit ? hit.point.toArray() : null;
   }
 
+  /**
+   * The name of the part a match at `point` lies in: the glTF node (or
+   * mesh) with the smallest box around the point, or null when the file
+   * names none.
+   */
+  nameAt(point) {
+    const p = new THREE.Vector3().fromArray(point);
+    let best = null;
+    for (const part of this.#parts) {
+      if (!part.name || !part.box.containsPoint(p)) continue;
+      if (!best || part.volume < best.volume) best = part;
+    }
+    return best?.name ?? null;
+  }
+
+  /** The template model to place at the matches (its meshes in file coordinates), or null. */
+  setTemplate(object) {
+    this.setGhosts([]);
+    if (!object) {
+      this.#template = null;
+      return;
+    }
+    object.updateMatrixWorld(true);
+    const meshes = [];
+    object.traverse((node) => {
+      if (node.isMesh && node.geometry?.attributes?.position) meshes.push({ geometry: node.geometry, matrix: node.matrixWorld.clone() });
+    });
+    this.#template = meshes;
+  }
+
+  /** Draws the template at every pose (row-major 4x4, template to scene), as a translucent ghost. */
+  setGhosts(poses) {
+    for (const ghost of this.#ghosts.children) ghost.dispose();
+    this.#ghosts.clear();
+    if (!this.#template || poses.length === 0) {
+      this.requestRender();
+      return;
+    }
+    const material = new THREE.MeshBasicMaterial({ color: GHOST, wireframe: true, transparent: true, opacity: 0.16, depthWrite: false });
+    const pose = new THREE.Matrix4();
+    const placed = new THREE.Matrix4();
+    for (const { geometry, matrix } of this.#template) {
+      const ghost = new THREE.InstancedMesh(geometry, material, poses.length);
+      poses.forEach((rows, i) => {
+        pose.set(...rows.flat());
+        ghost.setMatrixAt(i, placed.multiplyMatrices(pose, matrix));
+      });
+      ghost.raycast = () => {};
+      ghost.frustumCulled = false;
+      this.#ghosts.add(ghost);
+    }
+    this.requestRender();
+  }
+
+  /** How many matches the template is drawn at (0 when it is not). */
+  get ghostCount() {
+    return this.#ghosts.visible ? (this.#ghosts.children[0]?.count ?? 0) : 0;
+  }
+
+  /** Whether the ghosts are drawn. */
+  set ghostsVisible(visible) {
+    this.#ghosts.visible = visible;
+    this.requestRender();
+  }
+
+  /** X-ray: the scene's surface outside the matches turns faint, so that a match inside other material shows. */
+  set xray(on) {
+    this.#material.transparent = on;
+    this.#material.depthWrite = !on;
+    this.#material.userData.uniforms.surfaceOpacity.value = on ? XRAY_OPACITY : 1;
+    this.#material.needsUpdate = true;
+    this.requestRender();
+  }
+
+  get xray() {
+    return this.#material.transparent;
+  }
+
+  /** The point the camera orbits, as [x, y, z]. */
+  get target() {
+    return this.#controls.target.toArray();
+  }
+
+  /** The camera's distance to the point it orbits. */
+  distanceToTarget() {
+    return this.#camera.position.distanceTo(this.#controls.target);
+  }
+
   /** Client coordinates of a scene point (tests click through this). */
   project(point) {
+    this.#camera.updateMatrixWorld();
     const rect = this.#renderer.domElement.getBoundingClientRect();
     const v = new THREE.Vector3().fromArray(point).project(this.#camera);
     return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
@@ -321,6 +436,51 @@ export class View {
   }
 }
 
+let previewRenderer = null;
+
+/** Draws `object` once into `canvas` (a template's thumbnail), seen as the view frames a scene with `up` vertical. */
+export function renderPreview(canvas, object, up = 'y') {
+  previewRenderer ??= new THREE.WebGLRenderer({ canvas, antialias: true });
+  const scene = new THREE.Scene();
+  scene.background = new THREE.Color(0x181b21);
+  const clay = new THREE.MeshStandardMaterial({ color: CLAY, roughness: 0.62, side: THREE.DoubleSide });
+  const copy = object.clone();
+  copy.traverse((node) => {
+    if (node.isMesh) node.material = clay;
+  });
+  scene.add(copy, new THREE.HemisphereLight(0xffffff, 0x404040, 1.2));
+  const box = new THREE.Box3().setFromObject(copy);
+  const sphere = box.getBoundingSphere(new THREE.Sphere());
+  const camera = new THREE.PerspectiveCamera(35, canvas.width / canvas.height, sphere.radius * 0.01, sphere.radius * 10);
+  camera.up.set(0, up === 'y' ? 1 : 0, up === 'z' ? 1 : 0);
+  const back = up === 'y' ? new THREE.Vector3(0.5, 0.6, 1) : new THREE.Vector3(0.5, -1, 0.6);
+  camera.position.copy(sphere.center).addScaledVector(back.normalize(), sphere.radius * 3.2);
+  camera.lookAt(sphere.center);
+  const light = new THREE.DirectionalLight(0xffffff, 1.5);
+  light.position.copy(camera.position);
+  scene.add(light);
+  previewRenderer.render(scene, camera);
+  clay.dispose();
+}
+
+/**
+ * Every mesh of a scene with its world box and the name a person would
+ * know it by: its own node's, else the nearest named ancestor's (the file's
+ * root, named after the file, does not count).
+ */
+function namedParts(root) {
+  const parts = [];
+  root.traverse((node) => {
+    if (!node.isMesh || !node.geometry?.attributes?.position) return;
+    let name = null;
+    for (let at = node; at && at !== root && !name; at = at.parent) name = at.name || null;
+    const box = new THREE.Box3().setFromObject(node);
+    const size = box.getSize(new THREE.Vector3());
+    parts.push({ name, box, volume: Math.max(size.x, 1e-12) * Math.max(size.y, 1e-12) * Math.max(size.z, 1e-12) });
+  });
+  return parts;
+}
+
 function highlightTexture() {
   const texture = new THREE.DataTexture(new Float32Array(4 * MAX_HIGHLIGHTS), MAX_HIGHLIGHTS, 1, THREE.RGBAFormat, THREE.FloatType);
   texture.magFilter = THREE.NearestFilter;
@@ -336,6 +496,7 @@ function clayMaterial(highlights) {
     matchBalls: { value: highlights },
     matchCount: { value: 0 },
     focusIndex: { value: -1 },
+    surfaceOpacity: { value: 1 },
     matchColor: { value: MATCH },
     focusColor: { value: FOCUS },
   };
@@ -362,7 +523,8 @@ function clayMaterial(highlights) {
         uniform int matchCount;
         uniform int focusIndex;
         uniform vec3 matchColor;
-        uniform vec3 focusColor;`,
+        uniform vec3 focusColor;
+        uniform float surfaceOpacity;`,
       )
       .replace(
         '#include <color_fragment>',
@@ -381,7 +543,8 @@ function clayMaterial(highlights) {
         }
         vec3 tint = mix(matchColor, focusColor, focusWeight);
         diffuseColor.rgb = mix(diffuseColor.rgb, tint, 0.78 * matchWeight);
-        diffuseColor.rgb *= 1.0 - 0.45 * rim;`,
+        diffuseColor.rgb *= 1.0 - 0.45 * rim;
+        diffuseColor.a *= mix(surfaceOpacity, 1.0, matchWeight);`,
       );
   };
   return material;

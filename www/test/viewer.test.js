@@ -29,6 +29,8 @@ async function openViewer({ isolation }) {
   page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
   page.on('console', (message) => {
     if (message.type() === 'error') problems.push(`console error: ${message.text()}`);
+    // Nothing the page or its workers print should warn of misuse.
+    if (message.type() === 'warning' && /deprecated/.test(message.text())) problems.push(`console warning: ${message.text()}`);
   });
   await page.goto(`${origin}/`);
   return {
@@ -337,7 +339,9 @@ test('viewer: scenes in every format, by the file input and by drag and drop', a
     await page.dispatchEvent('#viewport', 'drop', { dataTransfer });
     await waitForStatus(page, 'ready');
     assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'demo-scene.gltf');
-    await page.click('#search-button');
+    // The demo's own mug went with the demo scene: opening a template searches.
+    assert.equal(await page.locator('#template-name').textContent(), 'none');
+    await page.setInputFiles('#template-input', resolve(repo, 'assets/demo/template.glb'));
     await waitForStatus(page, 'done');
     const demoTruth = await truth(resolve(repo, 'assets/demo'));
     assertMatchesTruth(await page.evaluate(() => globalThis.viewer.report), demoTruth, 'demo as .gltf + .bin');
@@ -378,6 +382,188 @@ test('viewer: scenes in every format, by the file input and by drag and drop', a
       // A single model stands on y, as OBJ and PLY files usually do.
       if (name === 'cow.obj') assert.equal(await page.evaluate(() => globalThis.viewer.up), 'y');
     }
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
+
+test('viewer: clicks — model mode keeps its template, an early click picks what a late one does, a double-click focuses, a moved sphere marks the matches stale', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  const selectionAt = async (point) => {
+    const { x, y } = await page.evaluate((p) => globalThis.viewer.project(p), point);
+    await page.mouse.click(x, y);
+    return page.evaluate(() => globalThis.viewer.selection);
+  };
+  try {
+    await waitForStatus(page, 'done');
+    // A click on a mug in model mode: no sphere, the file template stays.
+    const mug = (await page.evaluate(() => globalThis.viewer.report)).instances[0].position;
+    assert.equal(await selectionAt(mug), null);
+    assert.ok(await page.locator('input[name="template-kind"][value="model"]').isChecked());
+    assert.match(await page.locator('#template-name').textContent(), /demo mug/);
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
+
+    // Selection mode, and clicks on the bunnies of zoo-bunny once the page
+    // has settled.
+    await page.click('label:has(input[value="selection"])');
+    await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    await page.waitForTimeout(1000);
+    const bunnies = (await truth(zooBunny)).instances.map((t) => [t.transform[0][3], t.transform[1][3], t.transform[2][3]]);
+    const spots = [];
+    for (const centre of bunnies) spots.push(await page.evaluate((p) => globalThis.viewer.project(p), centre));
+    const late = [];
+    for (const { x, y } of spots) {
+      await page.mouse.click(x, y);
+      late.push(await page.evaluate(() => globalThis.viewer.selection));
+    }
+    assert.ok(late.every(Boolean), 'a click on a bunny placed no sphere');
+    // Another scene, then zoo-bunny again, clicked at the same spots the
+    // instant it is ready, before anything is drawn (the view frames a
+    // scene the same way each time): the same points.
+    await page.setInputFiles('#scene-input', resolve(repo, 'assets/demo/scene.glb'));
+    await waitForStatus(page, 'ready');
+    await page.evaluate((spots) => {
+      const observer = new MutationObserver(() => {
+        if (document.body.dataset.status !== 'ready') return;
+        observer.disconnect();
+        const canvas = document.querySelector('#viewport canvas');
+        globalThis.earlyPicks = spots.map(({ x, y }) => {
+          const at = { clientX: x, clientY: y, button: 0, bubbles: true, pointerId: 1, pointerType: 'mouse', isPrimary: true };
+          canvas.dispatchEvent(new PointerEvent('pointerdown', at));
+          canvas.dispatchEvent(new PointerEvent('pointerup', at));
+          canvas.dispatchEvent(new MouseEvent('click', { ...at, detail: 1 }));
+          return globalThis.viewer.selection;
+        });
+      });
+      observer.observe(document.body, { attributes: true, attributeFilter: ['data-status'] });
+    }, spots);
+    await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    const early = await page.evaluate(() => globalThis.earlyPicks);
+    for (const [j, pick] of early.entries()) {
+      assert.ok(pick, `bunny ${j}: the early click placed no sphere`);
+      assert.ok(Math.hypot(...pick.center.map((v, i) => v - late[j].center[i])) < 1e-6, `bunny ${j}: early ${pick.center}, late ${late[j].center}`);
+    }
+    await page.mouse.click(spots.at(-1).x, spots.at(-1).y);
+    // The last click was on a bunny: search it, then move the sphere.
+    const placed = await page.evaluate(() => globalThis.viewer.selection);
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    assert.ok(await page.locator('#results-stale').isHidden());
+    // A double-click elsewhere turns the view; the sphere stays put.
+    const { x, y } = await page.evaluate((p) => globalThis.viewer.project(p), bunnies[0]);
+    const distance = await page.evaluate(() => globalThis.viewer.cameraDistance);
+    await page.mouse.dblclick(x, y);
+    await page.waitForTimeout(900);
+    assert.deepEqual(await page.evaluate(() => globalThis.viewer.selection), placed);
+    assert.ok(Math.abs((await page.evaluate(() => globalThis.viewer.cameraDistance)) - distance) < distance * 1e-3);
+    assert.ok(await page.locator('#results-stale').isHidden());
+    // A click that moves it says the matches shown are the old ones.
+    const { x: cx, y: cy } = await page.evaluate((p) => globalThis.viewer.project(p), bunnies[1]);
+    await page.mouse.click(cx, cy);
+    assert.notDeepEqual(await page.evaluate(() => globalThis.viewer.selection), placed);
+    assert.ok(await page.locator('#results-stale').isVisible());
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    assert.ok(await page.locator('#results-stale').isHidden());
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
+
+test('viewer: templates — a broken one keeps the previous, one dropped on the view searches, with names, ghosts, export, fit view and x-ray', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    // A broken template file: named in the message, the mug stays.
+    await page.setInputFiles('#template-input', { name: 'broken.glb', mimeType: 'model/gltf-binary', buffer: Buffer.from('glTF nonsense') });
+    await page.locator('#message').waitFor({ state: 'visible', timeout: 30_000 });
+    const message = await page.locator('#message-text').textContent();
+    assert.match(message, /broken\.glb/);
+    assert.match(message, /still demo mug/);
+    assert.match(await page.locator('#template-name').textContent(), /demo mug/);
+    await page.evaluate(() => globalThis.viewer.dismissMessage());
+    await page.click('#search-button');
+    await waitForStatus(page, 'done');
+    assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
+    // The demo mug's poses carry the ghosts.
+    assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 3);
+
+    // zoo-bunny, and its template dropped on the view's right half.
+    await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    assert.equal(await page.locator('#template-name').textContent(), 'none');
+    const template = (await readFile(resolve(zooBunny, 'template.glb'))).toString('base64');
+    const dataTransfer = await page.evaluateHandle((base64) => {
+      const transfer = new DataTransfer();
+      transfer.items.add(new File([Uint8Array.from(atob(base64), (c) => c.charCodeAt(0))], 'bunny.glb'));
+      return transfer;
+    }, template);
+    const box = await page.locator('#viewport').boundingBox();
+    await page.dispatchEvent('#viewport', 'drop', { dataTransfer, clientX: box.x + box.width * 0.75, clientY: box.y + box.height / 2 });
+    await waitForStatus(page, 'done');
+    assert.equal(await page.locator('#template-name').textContent(), 'bunny.glb');
+    assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'scene.glb');
+    const report = await page.evaluate(() => globalThis.viewer.report);
+    assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny, dropped template');
+    // The readout leaves out the scene's load, paid once when it was opened.
+    const searching = (report.timings_ms.total - report.timings_ms.load).toFixed(0);
+    assert.match(await page.locator('#total-time').textContent(), new RegExp(`^${searching} ms searching`));
+    assert.ok(report.timings_ms.load > 0);
+    // Each match is named after the glTF node it lies in, and drawn as the template at its pose.
+    const names = await page.evaluate(() => globalThis.viewer.names);
+    assert.equal(names.length, 4);
+    for (const name of names) assert.match(name, /^stanford-bunny/);
+    assert.match(await page.locator('#instance-list li').first().textContent(), /stanford-bunny.*score.*distance.*support/);
+    assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 4);
+    await page.uncheck('#show-ghosts');
+    assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 0);
+    await page.check('#show-ghosts');
+
+    // The report as a file, with the names.
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#export-button')]);
+    const exported = JSON.parse(await readFile(await download.path(), 'utf8'));
+    assert.equal(download.suggestedFilename(), 'scene-matches.json');
+    assert.equal(exported.scene, 'scene.glb');
+    assert.equal(exported.template.file, 'bunny.glb');
+    assert.deepEqual(exported.template.center, report.template.center);
+    assert.equal(exported.options.descriptor, 'volume+harmonics');
+    assert.deepEqual(exported.instances.map((i) => i.name), names);
+    assert.deepEqual(exported.instances.map((i) => i.position), report.instances.map((i) => i.position));
+    assert.equal(exported.instances[0].pose.length, 4);
+
+    // Fit view, by key and by button, after flying to a match.
+    const camera = () => page.evaluate(() => ({ distance: globalThis.viewer.cameraDistance, target: globalThis.viewer.cameraTarget }));
+    const near = (a, b, scale) => a.every((v, i) => Math.abs(v - b[i]) < scale * 1e-6);
+    const framed = await camera();
+    const first = report.instances[0].position;
+    for (const fit of [() => page.keyboard.press('f'), () => page.click('#fit-button')]) {
+      await page.locator('#instance-list li button').first().click();
+      // The flight lasts 0.7 s of rendered frames.
+      await page.waitForFunction(
+        (p) => globalThis.viewer.cameraTarget.every((v, i) => Math.abs(v - p[i]) < 1e-9 + 1e-6 * Math.abs(p[i])),
+        first,
+        { timeout: 10_000 },
+      );
+      await fit();
+      const fitted = await camera();
+      assert.ok(near(fitted.target, framed.target, framed.distance) && Math.abs(fitted.distance - framed.distance) < framed.distance * 1e-6);
+    }
+    // X-ray by key; a screenshot shows the ghosts through the scene.
+    await page.keyboard.press('x');
+    assert.equal(await page.evaluate(() => globalThis.viewer.xray), true);
+    assert.ok(await page.locator('#xray').isChecked());
+    await mkdir(screenshots, { recursive: true });
+    await page.screenshot({ path: resolve(screenshots, 'viewer-xray-ghosts.png') });
+    await page.keyboard.press('x');
+    assert.equal(await page.evaluate(() => globalThis.viewer.xray), false);
     assert.deepEqual(viewer.problems, []);
   } finally {
     await viewer.close();
