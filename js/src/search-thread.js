@@ -5,8 +5,9 @@
 //
 // In:  {type: 'init', id, build, threads, backend}
 //      {type: 'load', id, bytes, options}
-//      {type: 'match', id, template: {bytes, format} | {center, radius}, options}
-// Out: {type: 'ready', id, info} | {type: 'loaded', id, scene}
+//      {type: 'check', id, template: {bytes, format} | {center, radius}}
+//      {type: 'match', id, template, options}
+// Out: {type: 'ready', id, info} | {type: 'loaded', id, scene} | {type: 'checked', id}
 //      {type: 'layer', id, stats} | {type: 'result', id, report}
 //      {type: 'error', id, error: {name, message}}
 import { Scene, Template, init, optionDefaults } from './index.js';
@@ -34,6 +35,9 @@ async function handle(message, send) {
       scene = next;
       const { triangles, parts, resolution, voxelSize } = next;
       send({ type: 'loaded', id, scene: { triangles, parts, resolution, voxelSize, ms: performance.now() - start } });
+    } else if (message.type === 'check') {
+      makeTemplate(message.template).free();
+      send({ type: 'checked', id });
     } else if (message.type === 'match') {
       send({ type: 'result', id, report: await search(message, send) });
     } else {
@@ -46,9 +50,7 @@ async function handle(message, send) {
 
 async function search({ id, template: spec, options }, send) {
   if (!scene) throw new Error('fast-reject: load a scene (loadScene) before searching it');
-  const template = spec?.center
-    ? Template.fromSelection(spec.center, spec.radius)
-    : Template.fromBytes(spec?.bytes, { format: spec?.format });
+  const template = makeTemplate(spec);
   try {
     const onLayer = (stats) => send({ type: 'layer', id, stats });
     if (backend === 'cpu') return scene.match(template, options, onLayer);
@@ -56,6 +58,12 @@ async function search({ id, template: spec, options }, send) {
   } finally {
     template.free();
   }
+}
+
+function makeTemplate(spec) {
+  return spec?.center
+    ? Template.fromSelection(spec.center, spec.radius)
+    : Template.fromBytes(spec?.bytes, { format: spec?.format });
 }
 
 if (isNode) {

@@ -58,6 +58,8 @@ export class SearchWorker {
   ready(): Promise<WorkerInfo>;
   /** Parses a scene and keeps it for the next searches; on failure the previous scene stays. The bytes are copied. */
   loadScene(bytes: MeshBytes, options?: SceneOptions): Promise<SceneInfo>;
+  /** Parses a template and forgets it: rejects with the reason a search with it would fail at once (a broken file). */
+  checkTemplate(template: TemplateSource): Promise<void>;
   /** Searches the loaded scene; rejects with a `CancelledError` when cancelled, an `Error` on bad input. */
   match(template: TemplateSource, options?: MatchOptions, control?: MatchControl): Promise<MatchReport>;
   /** Stops the running request and every queued one (they reject with a `CancelledError`); the scene is loaded again. */
