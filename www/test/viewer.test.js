@@ -8,6 +8,7 @@ import { mkdir, readFile } from 'node:fs/promises';
 import { resolve } from 'node:path';
 import { test } from 'node:test';
 import { fileURLToPath } from 'node:url';
+import { inflateSync } from 'node:zlib';
 
 import { launchChromium } from '../../js/test/browser.js';
 import { startServer } from '../server.js';
@@ -307,6 +308,17 @@ test('viewer: a broken or unsupported file gives a message and keeps the scene',
   }
 });
 
+/** The filtered pixel bytes of a PNG (its IDAT chunks inflated): a one-colour image has only a few distinct values. */
+function pixelBytes(png) {
+  const chunks = [];
+  for (let at = 8; at < png.length; ) {
+    const length = png.readUInt32BE(at);
+    if (png.toString('latin1', at + 4, at + 8) === 'IDAT') chunks.push(png.subarray(at + 8, at + 8 + length));
+    at += 12 + length;
+  }
+  return inflateSync(Buffer.concat(chunks));
+}
+
 /** A .glb split into a .gltf and its .bin, as exporters often write them. */
 function splitGlb(glb, binName) {
   const jsonLength = glb.readUInt32LE(12);
@@ -408,8 +420,10 @@ test('viewer: clicks — model mode keeps its template, an early click picks wha
     assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
 
     // Selection mode, and clicks on the bunnies of zoo-bunny once the page
-    // has settled.
+    // has settled. The mouse hints say what a click does there.
+    assert.ok(await page.locator('#selection-mouse-hints').isHidden());
     await page.click('label:has(input[value="selection"])');
+    assert.ok(await page.locator('#selection-mouse-hints').isVisible());
     await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
     await waitForStatus(page, 'ready');
     await page.waitForTimeout(1000);
@@ -500,6 +514,7 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
     await waitForStatus(page, 'ready');
     assert.equal(await page.locator('#template-name').textContent(), 'none');
+    assert.ok(await page.locator('#template-preview').isHidden());
     const template = (await readFile(resolve(zooBunny, 'template.glb'))).toString('base64');
     const dataTransfer = await page.evaluateHandle((base64) => {
       const transfer = new DataTransfer();
@@ -510,6 +525,10 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     await page.dispatchEvent('#viewport', 'drop', { dataTransfer, clientX: box.x + box.width * 0.75, clientY: box.y + box.height / 2 });
     await waitForStatus(page, 'done');
     assert.equal(await page.locator('#template-name').textContent(), 'bunny.glb');
+    // Its preview is drawn: the canvas holds more than its background.
+    assert.ok(await page.locator('#template-preview').isVisible());
+    const preview = pixelBytes(await page.locator('#template-preview').screenshot());
+    assert.ok(new Set(preview).size > 32, 'the template preview is blank');
     assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'scene.glb');
     const report = await page.evaluate(() => globalThis.viewer.report);
     assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny, dropped template');
