@@ -319,6 +319,16 @@ function pixelBytes(png) {
   return inflateSync(Buffer.concat(chunks));
 }
 
+/** Drops `files` ({name, base64}) on the view, at `at` ({clientX, clientY}; the left edge when absent). */
+async function dropFiles(page, files, at = {}) {
+  const dataTransfer = await page.evaluateHandle((files) => {
+    const transfer = new DataTransfer();
+    for (const f of files) transfer.items.add(new File([Uint8Array.from(atob(f.base64), (c) => c.charCodeAt(0))], f.name));
+    return transfer;
+  }, files);
+  await page.dispatchEvent('#viewport', 'drop', { dataTransfer, ...at });
+}
+
 /** A .glb split into a .gltf and its .bin, as exporters often write them. */
 function splitGlb(glb, binName) {
   const jsonLength = glb.readUInt32LE(12);
@@ -340,15 +350,7 @@ test('viewer: scenes in every format, by the file input and by drag and drop', a
       { name: 'demo-scene.gltf', base64: gltf.toString('base64') },
       { name: 'demo-scene.bin', base64: bin.toString('base64') },
     ];
-    const dataTransfer = await page.evaluateHandle((files) => {
-      const transfer = new DataTransfer();
-      for (const f of files) {
-        const bytes = Uint8Array.from(atob(f.base64), (c) => c.charCodeAt(0));
-        transfer.items.add(new File([bytes], f.name));
-      }
-      return transfer;
-    }, files);
-    await page.dispatchEvent('#viewport', 'drop', { dataTransfer });
+    await dropFiles(page, files);
     await waitForStatus(page, 'ready');
     assert.equal(await page.evaluate(() => globalThis.viewer.sceneName), 'demo-scene.gltf');
     // The demo's own mug went with the demo scene: opening a template searches.
@@ -516,13 +518,8 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     assert.equal(await page.locator('#template-name').textContent(), 'none');
     assert.ok(await page.locator('#template-preview').isHidden());
     const template = (await readFile(resolve(zooBunny, 'template.glb'))).toString('base64');
-    const dataTransfer = await page.evaluateHandle((base64) => {
-      const transfer = new DataTransfer();
-      transfer.items.add(new File([Uint8Array.from(atob(base64), (c) => c.charCodeAt(0))], 'bunny.glb'));
-      return transfer;
-    }, template);
     const box = await page.locator('#viewport').boundingBox();
-    await page.dispatchEvent('#viewport', 'drop', { dataTransfer, clientX: box.x + box.width * 0.75, clientY: box.y + box.height / 2 });
+    await dropFiles(page, [{ name: 'bunny.glb', base64: template }], { clientX: box.x + box.width * 0.75, clientY: box.y + box.height / 2 });
     await waitForStatus(page, 'done');
     assert.equal(await page.locator('#template-name').textContent(), 'bunny.glb');
     // Its preview is drawn: the canvas holds more than its background.
