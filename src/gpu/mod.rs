@@ -57,6 +57,9 @@ pub struct Gpu {
     /// Errors the device reported outside any call's own checks, and
     /// whether it was lost: read after every submission.
     failures: Arc<Mutex<Vec<String>>>,
+    /// Balls' run tables on the device, the latest used first (see
+    /// `volume::BallTables`).
+    ball_tables: Mutex<Vec<volume::BallTables>>,
 }
 
 impl Gpu {
@@ -153,6 +156,7 @@ impl Gpu {
             spheres,
             balls,
             failures,
+            ball_tables: Mutex::default(),
         };
         gpu.check("building the GPU pipelines")?;
         Ok(gpu)

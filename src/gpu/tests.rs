@@ -112,13 +112,49 @@ fn gpu_ball_counts_equal_the_cpus() {
         let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
         levels.push(level);
         let ball = Ball::build(radius, level, Backend::Serial).bind(&solid, Backend::Serial);
-        let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
         let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
-        assert_eq!(got, want, "radius {radius} (level {level})");
+        // The default lanes for this many candidates, and one lane, a few
+        // and a whole workgroup per candidate (a layer's last candidates).
+        for lanes in [None, Some(1), Some(4), Some(64)] {
+            let got = pollster::block_on(on_gpu.counts_with(&ball, &voxels, lanes)).unwrap();
+            assert_eq!(
+                got, want,
+                "radius {radius} (level {level}), lanes {lanes:?}"
+            );
+        }
         assert!(want.iter().any(|&n| n > 0));
     }
     assert!(
         levels.contains(&0) && levels.iter().any(|&l| l >= 3),
         "{levels:?}"
     );
+}
+
+#[test]
+fn a_balls_run_tables_are_uploaded_once_for_every_part() {
+    use crate::voxel::Ball;
+    let Some(gpu) = test_gpu() else { return };
+    let kept = |gpu: &Gpu| gpu.ball_tables.lock().unwrap().len();
+    let (small, large) = (Ball::at_level(7.0, 1), Ball::at_level(30.0, 3));
+    // Two parts' solids, each searched with the same two balls.
+    for voxel in [0.02, 0.03] {
+        let solid = lumpy_solid(voxel);
+        let on_gpu = GpuSolid::new(&gpu, &solid);
+        for ball in [&small, &large] {
+            let ball = ball.clone().bind(&solid, Backend::Serial);
+            let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+                .iter_ones()
+                .step_by(31)
+                .collect();
+            let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
+            let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
+            assert_eq!(got, want, "ball of {} voxels", ball.radius());
+        }
+    }
+    assert_eq!(kept(&gpu), 2);
+    // The latest used comes first.
+    let first = gpu.ball_tables.lock().unwrap()[0].ball;
+    assert_eq!(first, (large.radius().to_bits(), large.level()));
+    assert_eq!(gpu.ball_tables(&small).ball.0, small.radius().to_bits());
+    assert_eq!(kept(&gpu), 2);
 }

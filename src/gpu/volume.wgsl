@@ -1,8 +1,11 @@
-// The volume descriptor's ball counts: one invocation per candidate sums
-// the solid voxels in the runs of its ball's phase, by popcounts on the bit
-// grid (level 0) or as differences of a pyramid level's running sums along
-// x (above), clipped to the grid as on the CPU. Integers: the same counts
-// as the CPU's.
+// The volume descriptor's ball counts: `lanes` invocations per candidate
+// (a power of two up to 64) share the runs of its ball's phase and sum the
+// solid voxels in them, by popcounts on the bit grid (level 0) or as
+// differences of a pyramid level's running sums along x (above), clipped
+// to the grid as on the CPU; the workgroup then adds each candidate's
+// lanes. One lane suits many candidates; a late layer's few candidates
+// would leave a GPU nearly idle, each lane walking hundreds of runs, so
+// the host gives them more lanes. Integers: the same counts as the CPU's.
 
 struct Params {
     // Cells of the grid read (voxels, or blocks of the level).
@@ -12,8 +15,10 @@ struct Params {
     row_stride: u32,
     level: u32,
     count: u32,
-    // Invocations along x (the candidate is y * this + x).
-    threads_x: u32,
+    // Workgroups along x (the workgroup is y * this + x).
+    groups_x: u32,
+    // Invocations per candidate: 1, 2, 4, ..., 64.
+    lanes: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -42,12 +47,36 @@ fn row_bits(row: u32, lo: u32, hi: u32) -> u32 {
     return n;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.y * params.threads_x + id.x;
-    if (i >= params.count) {
-        return;
+const WORKGROUP: u32 = 64u;
+
+// Each invocation's share of its candidate's count, added up in place.
+var<workgroup> partial: array<u32, WORKGROUP>;
+
+@compute @workgroup_size(WORKGROUP)
+fn main(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let lanes = params.lanes;
+    let lane = local % lanes;
+    let i = (group.y * params.groups_x + group.x) * (WORKGROUP / lanes) + local / lanes;
+    // No early return: every invocation reaches the barriers below.
+    var total = 0u;
+    if (i < params.count) {
+        total = lane_count(i, lane, lanes);
     }
+    partial[local] = total;
+    workgroupBarrier();
+    for (var step = lanes / 2u; step > 0u; step /= 2u) {
+        if (lane < step) {
+            partial[local] += partial[local + step];
+        }
+        workgroupBarrier();
+    }
+    if (lane == 0u && i < params.count) {
+        counts[i] = partial[local];
+    }
+}
+
+// Solid voxels in runs lane, lane + lanes, ... of candidate i's ball.
+fn lane_count(i: u32, lane: u32, lanes: u32) -> u32 {
     let v = voxels[i].xyz;
     var c = v;
     var phase = 0u;
@@ -59,7 +88,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let d = vec3<i32>(params.dims.xyz);
     var total = 0u;
-    for (var k = phase_starts[phase]; k < phase_starts[phase + 1u]; k++) {
+    for (var k = phase_starts[phase] + lane; k < phase_starts[phase + 1u]; k += lanes) {
         let run = runs[k];
         let y = c.y + run.x;
         let z = c.z + run.y;
@@ -78,5 +107,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             total += cells[row + u32(x1) + 1u] - cells[row + u32(x0)];
         }
     }
-    counts[i] = total;
+    return total;
 }
