@@ -6,7 +6,8 @@
 //! times (default 3) and prints the fastest run of each, so that figures
 //! from a busy machine stay comparable. `cargo bench --bench stages -- NAME`
 //! runs the scenes whose names contain NAME. The scenes come from
-//! `../shared/scenes`; the default parameters are used throughout.
+//! `../shared/scenes` (or `$FAST_REJECT_SHARED/scenes`); the default
+//! parameters are used throughout.
 //! `FAST_REJECT_BENCH_DESCRIPTOR=curvature` measures the curvature
 //! descriptor instead of volume+harmonics, with the cost per candidate of
 //! every layer (how it grows with the radius);
@@ -20,7 +21,6 @@ mod common;
 
 #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use fast_reject::mesh::io::load;
@@ -78,11 +78,11 @@ const SCENES: [(&str, bool); 9] = [
 ];
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    let root = common::shared_dir().join("scenes");
     // A run that measured nothing must not look like a run that passed.
     assert!(
         root.exists(),
-        "no shared scenes at {}: the benchmark needs ../shared beside the crate",
+        "no shared scenes at {}: the benchmark needs ../shared beside the crate, or FAST_REJECT_SHARED",
         root.display()
     );
     let runs: usize = std::env::var("FAST_REJECT_BENCH_RUNS")

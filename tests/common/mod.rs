@@ -26,8 +26,8 @@ pub fn scene_dir(name: &str) -> PathBuf {
 }
 
 /// `../shared`, or FAST_REJECT_SHARED: for sandboxes (wasmtime) that
-/// cannot follow ../shared by its path.
-fn shared_dir() -> PathBuf {
+/// cannot follow ../shared by its path, and binaries run elsewhere.
+pub fn shared_dir() -> PathBuf {
     std::env::var("FAST_REJECT_SHARED").map_or_else(
         |_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
         PathBuf::from,
