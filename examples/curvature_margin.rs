@@ -63,11 +63,7 @@ fn margins(name: &str) {
         .as_array()
         .unwrap()
         .iter()
-        .map(|i| {
-            let m = |r: usize, k: usize| i["transform"][r][k].as_f64().unwrap();
-            let row = |r: usize| m(r, 0) * c.x + m(r, 1) * c.y + m(r, 2) * c.z + m(r, 3);
-            Vec3::new(row(0), row(1), row(2))
-        })
+        .map(|i| Vec3::from(common::apply(&i["transform"], [c.x, c.y, c.z])))
         .collect();
     let tolerance = truth["tolerance"].as_f64().unwrap_or(0.2)
         * truth
@@ -85,12 +81,20 @@ fn margins(name: &str) {
                 .collect()
         })
         .collect();
-    let near_copy = |p: Vec3| {
-        centres
-            .iter()
-            .map(|q| q.distance(p))
-            .fold(f64::INFINITY, f64::min)
-    };
+    // Each vertex's distance to the nearest copy's c_T, and its index by
+    // vertex id: the same for both scalings.
+    let to_copy: Vec<f64> = used
+        .iter()
+        .map(|&v| {
+            let p = surface.position(v);
+            centres
+                .iter()
+                .map(|q| q.distance(p))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let index: std::collections::HashMap<u32, usize> =
+        used.iter().enumerate().map(|(i, &v)| (v, i)).collect();
     let outer = radii[radii.len() - 1];
     let scalings: [(&str, Vec<f64>); 2] = [
         ("outer", radii.iter().map(|_| outer * outer).collect()),
@@ -123,7 +127,7 @@ fn margins(name: &str) {
         // rest of the scene.
         let best_among = |keep: &dyn Fn(f64) -> bool| {
             (0..used.len())
-                .filter(|&i| keep(near_copy(surface.position(used[i]))))
+                .filter(|&i| keep(to_copy[i]))
                 .map(|i| d[i])
                 .fold(f64::INFINITY, f64::min)
                 .max(1e-300)
@@ -138,8 +142,6 @@ fn margins(name: &str) {
                 let reach = rho * radii[0];
                 let grid = VertexGrid::new(surface, reach).unwrap();
                 let near = grid.within(surface, &anchors, reach);
-                let index: std::collections::HashMap<u32, usize> =
-                    used.iter().enumerate().map(|(i, &v)| (v, i)).collect();
                 let rise = near
                     .iter()
                     .filter(|&&v| {

@@ -108,7 +108,8 @@ pub struct Score {
     pub targets: usize,
 }
 
-fn apply(t: &serde_json::Value, p: [f64; 3]) -> [f64; 3] {
+/// `p` moved by the row-major 4x4 transform `t` (a truth's or a pose).
+pub fn apply(t: &serde_json::Value, p: [f64; 3]) -> [f64; 3] {
     let m = |r: usize, c: usize| t[r][c].as_f64().unwrap();
     [0, 1, 2].map(|r| m(r, 0) * p[0] + m(r, 1) * p[1] + m(r, 2) * p[2] + m(r, 3))
 }
