@@ -7,10 +7,11 @@ use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
 use crate::cascade::{Observer, finished, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
-use crate::descriptor::curvature::{CoverDescriptor, Covers, MirrorTest};
+use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 use crate::error::MemoryEstimate;
 use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
+use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::template::{CurvatureTemplate, TemplateSource};
 
@@ -42,33 +43,26 @@ pub(super) fn search_curvature(
     let curvature =
         CurvatureDescriptor::new(surface, radii, &gaussians, options.curvature_threshold);
     let t1 = now_ms();
-    let reach = options.curvature_spacing * radii[0];
-    let covers = (reach > 0.0).then(|| Covers::new(surface, reach));
-    let bound = covers.as_ref().and_then(|covers| {
-        CoverDescriptor::new(
-            surface,
-            covers,
-            radii,
-            &gaussians,
-            options.curvature_threshold,
-        )
-    });
-    let (survivors, stats) = match (&covers, bound) {
-        (Some(covers), Some(bound)) => {
-            let groups = (0..covers.len() as u32).collect();
+    let spacing = options.curvature_spacing * radii[0];
+    let (survivors, stats) = match VertexSample::of(surface, spacing) {
+        Some(sample) => {
+            let loose = CurvatureDescriptor::new(
+                surface,
+                radii,
+                &gaussians,
+                options.curvature_threshold * SAMPLE_SLACK,
+            )
+            .named("curvature-sample");
             let (near, mut stats) = finished(run_cascade(
-                &[&bound],
-                groups,
+                &[&loose],
+                sample.vertices,
                 1,
                 options.backend,
                 None,
                 observer,
             ))?;
-            let mut candidates: Vec<u32> = near
-                .iter()
-                .flat_map(|g| covers.members(g.point).iter().copied())
-                .collect();
-            candidates.sort_unstable();
+            let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
+            let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
             let (survivors, exact) = finished(run_cascade(
                 &[&curvature],
                 candidates,
@@ -80,7 +74,7 @@ pub(super) fn search_curvature(
             stats.extend(exact);
             (survivors, stats)
         }
-        _ => {
+        None => {
             let every = surface.used_vertices().collect();
             finished(run_cascade(
                 &[&curvature],

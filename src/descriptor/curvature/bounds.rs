@@ -23,16 +23,7 @@ pub(super) fn gaussian_bounds(tensor: [f64; 6], low_area: f64, high_area: f64) -
     // The exact value solves the tensor divided by the area, which rounds
     // differently: widen each eigenvalue by a little of the scale.
     let slack = 1e-9 * values.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    gaussian_range(values.map(|x| (x - slack, x + slack)), low_area, high_area)
-}
-
-/// An interval that holds the Gaussian curvature of a layer whose tensor's
-/// eigenvalues lie in `ranges` (any order) and whose area lies in
-/// `low_area..=high_area`.
-pub(super) fn gaussian_range(ranges: [(f64, f64); 3], low_area: f64, high_area: f64) -> (f64, f64) {
-    if low_area <= 0.0 {
-        return (f64::NEG_INFINITY, f64::INFINITY);
-    }
+    let ranges = values.map(|x| (x - slack, x + slack));
     let least_magnitude = |(a, b): (f64, f64)| {
         if a <= 0.0 && b >= 0.0 {
             0.0

@@ -23,18 +23,17 @@
 
 mod ball_clip;
 mod bounds;
-mod cover;
 mod mirror;
 mod neighbourhood;
 mod sample;
 mod surface;
 
 pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
-pub use cover::{CoverDescriptor, Covers};
 pub(crate) use mirror::MirrorTest;
 pub use mirror::handedness;
 pub use neighbourhood::CurvatureState;
 pub use sample::VertexGrid;
+pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 pub use surface::{CurvedEdge, Edge, Surface};
 
 use super::OnionDescriptor;

@@ -28,9 +28,6 @@ pub struct CurvatureState {
     /// Whether the walk has started from the vertex's own triangles.
     pub(super) started: bool,
     pub(super) distance: f64,
-    /// For a cover's bounds (see `cover`): how far, in radians, the normal
-    /// of any vertex the bounds must hold for may turn from `normal`.
-    pub(super) turn: Option<f64>,
 }
 
 /// Area and edge tensor of a set of triangles inside a ball.
@@ -42,12 +39,6 @@ pub(super) struct Sums {
     pub(super) tensor: [f64; 6],
     /// Area-weighted sum of positions (cut triangles at their centroid).
     pub(super) moment: Vec3,
-    /// For a cover's bounds only (zero otherwise): the share of `tensor`
-    /// from edges of negative angle, negated (a positive semidefinite sum).
-    pub(super) negative: [f64; 6],
-    /// For a cover's bounds only: how far the tensor may move, in spectral
-    /// norm, when the centre's normal turns by the state's `turn`.
-    pub(super) wobble: f64,
 }
 
 impl CurvatureState {
@@ -61,7 +52,6 @@ impl CurvatureState {
             waiting: Vec::new(),
             started: false,
             distance: 0.0,
-            turn: None,
         }
     }
 }
@@ -133,7 +123,6 @@ pub(super) fn gather(surface: &Surface, v: u32, r: f64, state: &mut CurvatureSta
         centre: c,
         radius: r,
         normal: state.normal,
-        turn: state.turn,
     };
     let previous_cut = std::mem::take(&mut state.cut);
     WALK.with_borrow_mut(|walk| {
@@ -241,7 +230,7 @@ pub(super) fn add_cut_edges(
             let side = e.side as usize;
             (e, segment_in_ball(p[side], p[(side + 1) % 3], r2))
         });
-        sums.add_edges(ball.edge_tensor(edges.filter(|&(_, length)| length > 0.0)));
+        sums.add_tensor(ball.edge_tensor(edges.filter(|&(_, length)| length > 0.0)));
     }
     (sums, cut_area)
 }
@@ -253,9 +242,14 @@ pub(super) fn add_cut_areas(
     surface: &Surface,
     ball: &LayerBall,
     state: &CurvatureState,
-    sums: Sums,
+    mut sums: Sums,
 ) -> Layer {
-    let sums = clip_cut_areas(surface, ball, state, sums);
+    for &t in &state.cut {
+        let p = surface.corners(t);
+        let area = clip_triangle_to_ball(p, ball.centre, ball.radius).area;
+        sums.area += area;
+        sums.moment += centroid(p) * area;
+    }
     if sums.area <= 0.0 {
         return Layer {
             gaussian: 0.0,
@@ -268,23 +262,6 @@ pub(super) fn add_cut_areas(
         gaussian: gaussian(values),
         centroid: sums.moment * (1.0 / sums.area) - ball.centre,
     }
-}
-
-/// `sums` from [`add_cut_edges`] with the cut triangles' clipped areas
-/// added: the exact sums of the ball.
-pub(super) fn clip_cut_areas(
-    surface: &Surface,
-    ball: &LayerBall,
-    state: &CurvatureState,
-    mut sums: Sums,
-) -> Sums {
-    for &t in &state.cut {
-        let p = surface.corners(t);
-        let area = clip_triangle_to_ball(p, ball.centre, ball.radius).area;
-        sums.area += area;
-        sums.moment += centroid(p) * area;
-    }
-    sums
 }
 
 /// The Gaussian curvature from the tensor's eigenvalues: the product of
@@ -308,9 +285,6 @@ pub(super) struct LayerBall {
     pub(super) centre: Vec3,
     pub(super) radius: f64,
     pub(super) normal: Vec3,
-    /// The state's `turn`: when set, the sums split the tensor by sign and
-    /// bound its change as the normal turns.
-    pub(super) turn: Option<f64>,
 }
 
 impl LayerBall {
@@ -329,7 +303,7 @@ impl LayerBall {
         sums.area += area;
         sums.moment += moment;
         let edges = surface.patch_curved_edges(p);
-        sums.add_edges(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
+        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
     }
 
     /// Adds triangle `t`, wholly inside, with its curved edges.
@@ -338,7 +312,7 @@ impl LayerBall {
         sums.area += area;
         sums.moment += centroid(surface.corners(t)) * area;
         let edges = surface.curved_edges(t);
-        sums.add_edges(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
+        sums.add_tensor(self.edge_tensor(edges.iter().map(|e| (e, e.length))));
     }
 
     /// The sum of `angle * length * d d^T` over `edges` (each with the
@@ -349,118 +323,37 @@ impl LayerBall {
     /// tensor, and the two tangential eigenvalues shrink with the radius
     /// (16% at r = 0.6 R on a sphere of radius R). Skipped where the surface
     /// has turned by 180 degrees or more.
-    fn edge_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> EdgeSums {
-        match self.turn {
-            None => EdgeSums {
-                tensor: self.plain_tensor(edges),
-                ..EdgeSums::default()
-            },
-            Some(turn) => self.split_tensor(edges, turn),
-        }
-    }
-
-    /// The exact search's sum: the tensor alone.
-    fn plain_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> [f64; 6] {
+    fn edge_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> [f64; 6] {
         let u = self.normal;
         let mut sum = [0.0; 6];
         for (e, length) in edges {
-            let cos = e.normal.dot(u);
+            let (n, d) = (e.normal, e.direction);
+            let cos = n.dot(u);
             if cos <= -1.0 + 1e-9 {
                 continue;
             }
-            add_outer(&mut sum, turned(e, u, cos), e.angle * length);
+            // The minimal rotation taking n to u, applied to d (d is normal
+            // to n): R d = d - ((u . d) / (1 + n . u)) (n + u).
+            let d = d - (n + u) * (u.dot(d) / (1.0 + cos));
+            let w = e.angle * length;
+            let wd = d * w;
+            sum[0] += wd.x * d.x;
+            sum[1] += wd.x * d.y;
+            sum[2] += wd.x * d.z;
+            sum[3] += wd.y * d.y;
+            sum[4] += wd.y * d.z;
+            sum[5] += wd.z * d.z;
         }
         sum
     }
-
-    /// A cover's sum: the tensor, its negative share, and how far it may
-    /// move, up to one common rotation, when the centre's normal turns by
-    /// up to `turn` radians. Turning the edge's normal n to u and then u to
-    /// u' differs from turning n to u' directly by a rotation by the
-    /// spherical excess of the triangle (n, u, u'), which no rotation of
-    /// the whole tensor undoes but which moves a direction, and its
-    /// projector, by at most that angle: with a = angle(n, u), b = turn and
-    /// t = tan(a/2) tan(b/2) < 1, |tan(excess/2)| <= t / (1 - t), so the
-    /// excess is at most 2t / (1 - t). Never more than the edge's whole
-    /// weight.
-    fn split_tensor<'e>(
-        &self,
-        edges: impl Iterator<Item = (&'e CurvedEdge, f64)>,
-        turn: f64,
-    ) -> EdgeSums {
-        let u = self.normal;
-        let half_turn = (0.5 * turn).tan();
-        let mut sums = EdgeSums::default();
-        for (e, length) in edges {
-            let cos = e.normal.dot(u);
-            let w = e.angle * length;
-            sums.wobble += w.abs() * excess_bound(cos, half_turn);
-            if cos <= -1.0 + 1e-9 {
-                continue;
-            }
-            let d = turned(e, u, cos);
-            add_outer(&mut sums.tensor, d, w);
-            if w < 0.0 {
-                add_outer(&mut sums.negative, d, -w);
-            }
-        }
-        sums
-    }
-}
-
-/// How far (radians, at most 1: a projector moves by at most 1) the turn
-/// of an edge's direction to a normal that turns by b can differ from one
-/// common rotation, for an edge whose normal makes cosine `cos` with the
-/// centre's; `half_turn` is tan(b / 2).
-pub(super) fn excess_bound(cos: f64, half_turn: f64) -> f64 {
-    if cos <= -1.0 + 1e-9 {
-        return 1.0;
-    }
-    let c = cos.min(1.0);
-    let t = ((1.0 - c) / (1.0 + c)).sqrt() * half_turn;
-    if t >= 1.0 {
-        return 1.0;
-    }
-    (2.0 * t / (1.0 - t)).min(1.0)
-}
-
-/// Edge `e`'s direction turned by the minimal rotation that takes its
-/// normal to `u` (`cos` = n . u, above -1): R d = d - ((u . d) / (1 + n .
-/// u)) (n + u), for d normal to n.
-fn turned(e: &CurvedEdge, u: Vec3, cos: f64) -> Vec3 {
-    let (n, d) = (e.normal, e.direction);
-    d - (n + u) * (u.dot(d) / (1.0 + cos))
-}
-
-/// Adds `w d d^T` to an upper triangle, row by row.
-fn add_outer(sum: &mut [f64; 6], d: Vec3, w: f64) {
-    let wd = d * w;
-    sum[0] += wd.x * d.x;
-    sum[1] += wd.x * d.y;
-    sum[2] += wd.x * d.z;
-    sum[3] += wd.y * d.y;
-    sum[4] += wd.y * d.z;
-    sum[5] += wd.z * d.z;
-}
-
-/// One call's edge sums (see [`Sums`]).
-#[derive(Default)]
-struct EdgeSums {
-    tensor: [f64; 6],
-    negative: [f64; 6],
-    wobble: f64,
 }
 
 impl Sums {
-    /// Adds one call's edge sums.
-    fn add_edges(&mut self, edges: EdgeSums) {
-        for (sum, x) in self.tensor.iter_mut().zip(edges.tensor) {
+    /// Adds an edge tensor given as its upper triangle, row by row.
+    fn add_tensor(&mut self, upper: [f64; 6]) {
+        for (sum, x) in self.tensor.iter_mut().zip(upper) {
             *sum += x;
         }
-        for (sum, x) in self.negative.iter_mut().zip(edges.negative) {
-            *sum += x;
-        }
-        self.wobble += edges.wobble;
     }
 }
 
