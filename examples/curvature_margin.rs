@@ -5,7 +5,11 @@
 //! - `outer`: every layer's difference scaled by r_k^2 (the search's);
 //! - `own`: layer i's difference scaled by its own r_i^2, scale-free layer
 //!   by layer, so that the small inner balls, whose curvature changes
-//!   steeply as the centre moves, weigh no more than the outer ones.
+//!   steeply as the centre moves, weigh no more than the outer ones;
+//! - `kernel outer`, `kernel own`: the smooth variant of the layers
+//!   ([`kernel_layers_at`]: each edge weighted by a kernel that falls to 0
+//!   at the sphere, divided by a constant instead of the area) under the
+//!   same two scalings.
 //!
 //! Per scene and scaling, as shares of the best wrong distance (the
 //! smallest distance of a vertex farther than r_k from every true copy's
@@ -18,7 +22,12 @@
 //! largest distance of a vertex within rho r_1 of a copy's best vertex:
 //! what a sampled first pass with samples rho r_1 apart must let through.
 //! Below 1, a slack exists that keeps every copy from any such sample and
-//! still rejects every other object.
+//! still rejects every other object. In brackets, the share of all
+//! vertices within that rise: what such a pass keeps. `slack/rise`: the
+//! slack the template alone gives (its own largest distance within rho r_1
+//! of its centre vertex, plus the worst copy's distance by the triangle
+//! inequality) over the rise the scene needs; at least 1 where it covers
+//! the scene, and in brackets the share of vertices it keeps.
 //!
 //! cargo run --release --example curvature_margin -- SCENE...
 //!
@@ -29,7 +38,9 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use fast_reject::descriptor::curvature::{CurvatureDescriptor, VertexGrid};
+use fast_reject::descriptor::curvature::{
+    CurvatureDescriptor, Surface, VertexGrid, kernel_layers_at,
+};
 use fast_reject::math::Vec3;
 use fast_reject::scene::SceneOptions;
 use fast_reject::search::MatchOptions;
@@ -51,12 +62,23 @@ fn main() {
     }
 }
 
+/// One descriptor under one scaling: every vertex's layers, the template's,
+/// the per-layer scale, and how to compute the layers at a vertex.
+struct Variant<'a> {
+    label: &'a str,
+    layers: &'a [Vec<f64>],
+    wanted: &'a [f64],
+    scale: &'a [f64],
+    at: &'a dyn Fn(&Surface, u32) -> Vec<f64>,
+}
+
 fn margins(name: &str) {
     let scene = common::scene(name, &SceneOptions::DEFAULT);
     let source = common::template(name, false);
     let template = CurvatureTemplate::new(&source, &scene, MatchOptions::DEFAULT.layers).unwrap();
     let radii = template.radii().to_vec();
     let wanted = CurvatureDescriptor::describe(template.surface(&scene), template.vertex(), &radii);
+    let wanted_kernel = kernel_layers_at(template.surface(&scene), template.vertex(), &radii);
     let truth = common::truth(name);
     let c = template.center();
     let centres: Vec<Vec3> = truth["instances"]
@@ -81,6 +103,10 @@ fn margins(name: &str) {
                 .collect()
         })
         .collect();
+    let kernel: Vec<Vec<f64>> = used
+        .par_iter()
+        .map(|&v| kernel_layers_at(surface, v, &radii))
+        .collect();
     // Each vertex's distance to the nearest copy's c_T, and its index by
     // vertex id: the same for both scalings.
     let to_copy: Vec<f64> = used
@@ -96,15 +122,53 @@ fn margins(name: &str) {
     let index: std::collections::HashMap<u32, usize> =
         used.iter().enumerate().map(|(i, &v)| (v, i)).collect();
     let outer = radii[radii.len() - 1];
-    let scalings: [(&str, Vec<f64>); 2] = [
-        ("outer", radii.iter().map(|_| outer * outer).collect()),
-        ("own", radii.iter().map(|r| r * r).collect()),
+    let outer_scale: Vec<f64> = radii.iter().map(|_| outer * outer).collect();
+    let own_scale: Vec<f64> = radii.iter().map(|r| r * r).collect();
+    let exact_at = |s: &Surface, v: u32| CurvatureDescriptor::describe(s, v, &radii);
+    let kernel_at = |s: &Surface, v: u32| kernel_layers_at(s, v, &radii);
+    let variants = [
+        Variant {
+            label: "outer",
+            layers: &layers,
+            wanted: &wanted,
+            scale: &outer_scale,
+            at: &exact_at,
+        },
+        Variant {
+            label: "own",
+            layers: &layers,
+            wanted: &wanted,
+            scale: &own_scale,
+            at: &exact_at,
+        },
+        Variant {
+            label: "kernel outer",
+            layers: &kernel,
+            wanted: &wanted_kernel,
+            scale: &outer_scale,
+            at: &kernel_at,
+        },
+        Variant {
+            label: "kernel own",
+            layers: &kernel,
+            wanted: &wanted_kernel,
+            scale: &own_scale,
+            at: &kernel_at,
+        },
     ];
-    for (label, scale) in scalings {
+    let (template_surface, centre_vertex) = (template.surface(&scene), template.vertex());
+    for Variant {
+        label,
+        layers,
+        wanted,
+        scale,
+        at,
+    } in variants
+    {
         let distance = |g: &[f64]| -> f64 {
             g.iter()
-                .zip(&wanted)
-                .zip(&scale)
+                .zip(wanted)
+                .zip(scale)
                 .map(|((g, t), s)| (s * (g - t)).powi(2))
                 .sum()
         };
@@ -150,7 +214,31 @@ fn margins(name: &str) {
                     })
                     .map(|v| d[index[v]])
                     .fold(0.0, f64::max);
-                format!("{:.2}", rise / wrong)
+                let kept = d.iter().filter(|&&x| x <= rise).count();
+                // What the template alone says: its own distance within
+                // reach of its centre vertex, plus the threshold's worth of
+                // difference between a copy and the template (the triangle
+                // inequality in the layers' space).
+                let own_grid = VertexGrid::new(template_surface, reach).unwrap();
+                let centre = template_surface.position(centre_vertex);
+                let template_rise = own_grid
+                    .within(template_surface, &[centre], reach)
+                    .iter()
+                    .map(|&x| distance(&at(template_surface, x)))
+                    .fold(0.0, f64::max);
+                // The copies' own difference from the template: the worst
+                // copy's best distance (the search would use its threshold,
+                // which is larger).
+                let noise = worst_true;
+                let slack = (template_rise.sqrt() + noise.sqrt()).powi(2);
+                let kept_slack = d.iter().filter(|&&x| x <= slack).count();
+                format!(
+                    "{:.2} ({:.1}%) slack/rise {:.2} ({:.1}%)",
+                    rise / wrong,
+                    100.0 * kept as f64 / d.len() as f64,
+                    slack / rise.max(1e-300),
+                    100.0 * kept_slack as f64 / d.len() as f64
+                )
             })
             .collect();
         println!(

@@ -323,7 +323,10 @@ impl LayerBall {
     /// tensor, and the two tangential eigenvalues shrink with the radius
     /// (16% at r = 0.6 R on a sphere of radius R). Skipped where the surface
     /// has turned by 180 degrees or more.
-    fn edge_tensor<'e>(&self, edges: impl Iterator<Item = (&'e CurvedEdge, f64)>) -> [f64; 6] {
+    pub(super) fn edge_tensor<'e>(
+        &self,
+        edges: impl Iterator<Item = (&'e CurvedEdge, f64)>,
+    ) -> [f64; 6] {
         let u = self.normal;
         let mut sum = [0.0; 6];
         for (e, length) in edges {
