@@ -6,10 +6,10 @@
 //! - `own`: layer i's difference scaled by its own r_i^2, scale-free layer
 //!   by layer, so that the small inner balls, whose curvature changes
 //!   steeply as the centre moves, weigh no more than the outer ones;
-//! - `kernel outer`, `kernel own`: the smooth variant of the layers
+//! - `kernel-disc`, `kernel-area`: the smooth variant of the layers
 //!   ([`kernel_layers_at`]: each edge weighted by a kernel that falls to 0
-//!   at the sphere, divided by a constant instead of the area) under the
-//!   same two scalings.
+//!   at the sphere, divided by a constant or by the kernel-weighted area)
+//!   under the same two scalings.
 //!
 //! Per scene and scaling, as shares of the best wrong distance (the
 //! smallest distance of a vertex farther than r_k from every true copy's
@@ -29,7 +29,8 @@
 //! inequality) over the rise the scene needs; at least 1 where it covers
 //! the scene, and in brackets the share of vertices it keeps.
 //!
-//! cargo run --release --example curvature_margin -- SCENE...
+//! cargo run --release --example curvature_margin -- [--descriptors
+//! exact,kernel-disc,kernel-area] SCENE...
 //!
 //! Model-template scenes of `../shared/scenes` (truth.json's transforms
 //! place c_T in the scene). Every vertex's six layers cost about 0.6 ms:
@@ -39,7 +40,7 @@
 mod common;
 
 use fast_reject::descriptor::curvature::{
-    CurvatureDescriptor, Surface, VertexGrid, kernel_layers_at,
+    CurvatureDescriptor, KernelNorm, Surface, VertexGrid, kernel_layers_at,
 };
 use fast_reject::math::Vec3;
 use fast_reject::scene::SceneOptions;
@@ -50,35 +51,58 @@ use rayon::prelude::*;
 /// Cover radii, in units of r_1.
 const RHOS: [f64; 3] = [0.1, 0.25, 0.5];
 
+/// The descriptors compared: the search's and the two kernel variants.
+const DESCRIPTORS: [&str; 3] = ["exact", "kernel-disc", "kernel-area"];
+
+/// Descriptor `name`'s layers at vertex `v`.
+fn layers_of(name: &str, surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
+    match name {
+        "exact" => CurvatureDescriptor::describe(surface, v, radii),
+        "kernel-disc" => kernel_layers_at(surface, v, radii, KernelNorm::Disc),
+        "kernel-area" => kernel_layers_at(surface, v, radii, KernelNorm::Area),
+        _ => panic!("descriptors are {DESCRIPTORS:?}"),
+    }
+}
+
 fn main() {
-    let names: Vec<String> = std::env::args().skip(1).collect();
+    let mut names: Vec<String> = std::env::args().skip(1).collect();
+    let mut descriptors: Vec<String> = DESCRIPTORS.map(String::from).to_vec();
+    if names.first().map(String::as_str) == Some("--descriptors") && names.len() > 1 {
+        descriptors = names[1].split(',').map(String::from).collect();
+        names.drain(..2);
+    }
     println!(
         "| scene | scaling | vertices | true / wrong | on copies / wrong | {} |",
         RHOS.map(|r| format!("rise({r}) / wrong")).join(" | ")
     );
     println!("|---|---|---:|---:|---:|{}", "---:|".repeat(RHOS.len()));
     for name in &names {
-        margins(name);
+        margins(name, &descriptors);
     }
 }
 
 /// One descriptor under one scaling: every vertex's layers, the template's,
 /// the per-layer scale, and how to compute the layers at a vertex.
 struct Variant<'a> {
-    label: &'a str,
+    label: String,
+    descriptor: &'a str,
     layers: &'a [Vec<f64>],
     wanted: &'a [f64],
     scale: &'a [f64],
-    at: &'a dyn Fn(&Surface, u32) -> Vec<f64>,
 }
 
-fn margins(name: &str) {
+/// One descriptor's layers at the template's centre and at every vertex.
+struct Computed<'a> {
+    descriptor: &'a str,
+    wanted: Vec<f64>,
+    layers: Vec<Vec<f64>>,
+}
+
+fn margins(name: &str, descriptors: &[String]) {
     let scene = common::scene(name, &SceneOptions::DEFAULT);
     let source = common::template(name, false);
     let template = CurvatureTemplate::new(&source, &scene, MatchOptions::DEFAULT.layers).unwrap();
     let radii = template.radii().to_vec();
-    let wanted = CurvatureDescriptor::describe(template.surface(&scene), template.vertex(), &radii);
-    let wanted_kernel = kernel_layers_at(template.surface(&scene), template.vertex(), &radii);
     let truth = common::truth(name);
     let c = template.center();
     let centres: Vec<Vec3> = truth["instances"]
@@ -94,18 +118,22 @@ fn margins(name: &str) {
             .unwrap_or(1.0);
     let surface = scene.surface();
     let used: Vec<u32> = surface.used_vertices().collect();
-    let layers: Vec<Vec<f64>> = used
-        .par_iter()
-        .map(|&v| {
-            CurvatureDescriptor::layers_at(surface, v, &radii)
-                .iter()
-                .map(|l| l.gaussian)
-                .collect()
+    let (template_surface, centre_vertex) = (template.surface(&scene), template.vertex());
+    // Per descriptor: the template's layers and every vertex's.
+    let computed: Vec<Computed> = descriptors
+        .iter()
+        .map(|d| {
+            let wanted = layers_of(d, template_surface, centre_vertex, &radii);
+            let layers = used
+                .par_iter()
+                .map(|&v| layers_of(d, surface, v, &radii))
+                .collect();
+            Computed {
+                descriptor: d,
+                wanted,
+                layers,
+            }
         })
-        .collect();
-    let kernel: Vec<Vec<f64>> = used
-        .par_iter()
-        .map(|&v| kernel_layers_at(surface, v, &radii))
         .collect();
     // Each vertex's distance to the nearest copy's c_T, and its index by
     // vertex id: the same for both scalings.
@@ -124,45 +152,29 @@ fn margins(name: &str) {
     let outer = radii[radii.len() - 1];
     let outer_scale: Vec<f64> = radii.iter().map(|_| outer * outer).collect();
     let own_scale: Vec<f64> = radii.iter().map(|r| r * r).collect();
-    let exact_at = |s: &Surface, v: u32| CurvatureDescriptor::describe(s, v, &radii);
-    let kernel_at = |s: &Surface, v: u32| kernel_layers_at(s, v, &radii);
-    let variants = [
-        Variant {
-            label: "outer",
-            layers: &layers,
-            wanted: &wanted,
-            scale: &outer_scale,
-            at: &exact_at,
-        },
-        Variant {
-            label: "own",
-            layers: &layers,
-            wanted: &wanted,
-            scale: &own_scale,
-            at: &exact_at,
-        },
-        Variant {
-            label: "kernel outer",
-            layers: &kernel,
-            wanted: &wanted_kernel,
-            scale: &outer_scale,
-            at: &kernel_at,
-        },
-        Variant {
-            label: "kernel own",
-            layers: &kernel,
-            wanted: &wanted_kernel,
-            scale: &own_scale,
-            at: &kernel_at,
-        },
-    ];
-    let (template_surface, centre_vertex) = (template.surface(&scene), template.vertex());
+    let mut variants = Vec::new();
+    for Computed {
+        descriptor,
+        wanted,
+        layers,
+    } in &computed
+    {
+        for (scaling, scale) in [("outer", &outer_scale), ("own", &own_scale)] {
+            variants.push(Variant {
+                label: format!("{descriptor} {scaling}"),
+                descriptor,
+                layers,
+                wanted,
+                scale,
+            });
+        }
+    }
     for Variant {
         label,
+        descriptor,
         layers,
         wanted,
         scale,
-        at,
     } in variants
     {
         let distance = |g: &[f64]| -> f64 {
@@ -224,7 +236,7 @@ fn margins(name: &str) {
                 let template_rise = own_grid
                     .within(template_surface, &[centre], reach)
                     .iter()
-                    .map(|&x| distance(&at(template_surface, x)))
+                    .map(|&x| distance(&layers_of(descriptor, template_surface, x, &radii)))
                     .fold(0.0, f64::max);
                 // The copies' own difference from the template: the worst
                 // copy's best distance (the search would use its threshold,

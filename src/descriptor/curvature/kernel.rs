@@ -1,8 +1,9 @@
 //! A smooth variant of the curvature layers, measured against the search's
 //! (examples/curvature_margin) and not used by it: each edge weighted by
 //! w(s) = (1 - s^2)^2, s = |x - c| / r, integrated along the edge, and the
-//! tensor divided by the weight's integral over a flat disc (pi r^2 / 3)
-//! instead of the neighbourhood's area.
+//! tensor divided either by the weight's integral over a flat disc (pi r^2
+//! / 3) or by its integral over the neighbourhood's surface (the search's
+//! area, weighted the same way).
 //!
 //! Why a candidate: the search's layer jumps as triangles cross the sphere
 //! (each brings its full weight in at once) and is divided by an area that
@@ -13,16 +14,27 @@
 use super::neighbourhood::{CurvatureState, full_tensor, gather, gaussian};
 use super::surface::Surface;
 use crate::math::{Vec3, symmetric_eigen};
+use crate::mesh::closest_point_on_triangle;
+
+/// What the kernel-weighted edge tensor is divided by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelNorm {
+    /// The weight's integral over a flat disc, pi r^2 / 3: a constant.
+    Disc,
+    /// The weight's integral over the neighbourhood's triangles.
+    Area,
+}
 
 /// The smooth layers at vertex `v` for every radius (Gaussian curvature,
 /// unscaled).
-pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
+pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64], norm: KernelNorm) -> Vec<f64> {
     let mut state = CurvatureState::at(surface, v);
     radii
         .iter()
         .map(|&r| {
             let ball = gather(surface, v, r, &mut state);
             let mut tensor = [0.0; 6];
+            let mut area = 0.0;
             let triangles = state
                 .patches
                 .iter()
@@ -30,6 +42,9 @@ pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
                 .chain(state.region.iter().copied());
             for t in triangles {
                 let p = surface.corners(t).map(|q| q - ball.centre);
+                if norm == KernelNorm::Area {
+                    area += kernel_area(p, r, 0);
+                }
                 let edges = surface.curved_edges(t).iter().filter_map(|e| {
                     let side = e.side as usize;
                     let w = kernel_length(p[side], p[(side + 1) % 3], r);
@@ -39,11 +54,98 @@ pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
                     *sum += x;
                 }
             }
-            let disc = std::f64::consts::PI * r * r / 3.0;
-            let (values, _) = symmetric_eigen(full_tensor(tensor).map(|row| row.map(|x| x / disc)));
+            let divisor = match norm {
+                KernelNorm::Disc => std::f64::consts::PI * r * r / 3.0,
+                KernelNorm::Area => area,
+            };
+            if divisor <= 0.0 {
+                return 0.0;
+            }
+            let (values, _) =
+                symmetric_eigen(full_tensor(tensor).map(|row| row.map(|x| x / divisor)));
             gaussian(values)
         })
         .collect()
+}
+
+/// Dunavant's degree-4 rule on a triangle: barycentric points and weights
+/// (summing to 1), exact for the weight inside the ball.
+const RULE: [([f64; 3], f64); 6] = [
+    (
+        [0.108103018168070, 0.445948490915965, 0.445948490915965],
+        0.223381589678011,
+    ),
+    (
+        [0.445948490915965, 0.108103018168070, 0.445948490915965],
+        0.223381589678011,
+    ),
+    (
+        [0.445948490915965, 0.445948490915965, 0.108103018168070],
+        0.223381589678011,
+    ),
+    (
+        [0.816847572980459, 0.091576213509771, 0.091576213509771],
+        0.109951743655322,
+    ),
+    (
+        [0.091576213509771, 0.816847572980459, 0.091576213509771],
+        0.109951743655322,
+    ),
+    (
+        [0.091576213509771, 0.091576213509771, 0.816847572980459],
+        0.109951743655322,
+    ),
+];
+
+/// A triangle cut by the sphere is split in four until its longest edge is
+/// at most this share of the radius (or it has been split `MAX_DEPTH`
+/// times), then the rule is applied to the clamped weight.
+const CUT_EDGE: f64 = 0.25;
+const MAX_DEPTH: u32 = 16;
+
+/// The integral of w(|x| / r) (0 past r) over triangle `p`, centre at the
+/// origin: exact for a triangle inside the ball, zero for one outside, and
+/// for one cut by the sphere the rule on the clamped weight after splits
+/// down to [`CUT_EDGE`] r (the weight is 0 with slope 0 at the sphere, so the
+/// rule's error is small and the sum moves continuously with the centre).
+pub fn kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
+    let r2 = r * r;
+    let inside = p.iter().all(|q| q.length_squared() <= r2);
+    if !inside {
+        let outside = closest_point_on_triangle(Vec3::ZERO, p[0], p[1], p[2], 0).distance2 >= r2;
+        if outside {
+            return 0.0;
+        }
+        let longest = (0..3)
+            .map(|i| (p[(i + 1) % 3] - p[i]).length_squared())
+            .fold(0.0, f64::max);
+        if depth < MAX_DEPTH && longest > CUT_EDGE * CUT_EDGE * r2 {
+            let m = [
+                (p[0] + p[1]) * 0.5,
+                (p[1] + p[2]) * 0.5,
+                (p[2] + p[0]) * 0.5,
+            ];
+            return [
+                [p[0], m[0], m[2]],
+                [m[0], p[1], m[1]],
+                [m[2], m[1], p[2]],
+                [m[0], m[1], m[2]],
+            ]
+            .iter()
+            .map(|&q| kernel_area(q, r, depth + 1))
+            .sum();
+        }
+    }
+    let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    let inv = 1.0 / r2;
+    RULE.iter()
+        .map(|&(b, weight)| {
+            let x = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+            let f = (1.0 - x.length_squared() * inv).max(0.0);
+            weight * f * f
+        })
+        .sum::<f64>()
+        * area
 }
 
 /// The integral of w(|x| / r) = (1 - |x|^2 / r^2)^2 (0 past r) along the
@@ -82,6 +184,7 @@ pub fn kernel_length(a: Vec3, b: Vec3, r: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    use super::KernelNorm;
     use super::*;
     use crate::mesh::shapes::uv_sphere;
 
@@ -92,10 +195,44 @@ mod tests {
         let radius = 2.0;
         let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192));
         let v = s.nearest_vertex(Vec3::new(radius, 0.0, 0.0)).unwrap();
-        for g in kernel_layers_at(&s, v, &[0.3, 0.6, 0.9, 1.2]) {
-            let want = 1.0 / (radius * radius);
-            assert!((g - want).abs() < 0.03 * want, "{g} vs {want}");
+        for norm in [KernelNorm::Disc, KernelNorm::Area] {
+            for g in kernel_layers_at(&s, v, &[0.3, 0.6, 0.9, 1.2], norm) {
+                let want = 1.0 / (radius * radius);
+                assert!((g - want).abs() < 0.03 * want, "{norm:?}: {g} vs {want}");
+            }
         }
+    }
+
+    #[test]
+    fn a_plane_weighs_as_a_disc() {
+        // One large triangle through the centre: pi r^2 / 3; one wholly
+        // inside: its polynomial integral, exactly.
+        let r = 1.5;
+        let big = [
+            Vec3::new(-10.0, -10.0, 0.0),
+            Vec3::new(10.0, -10.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+        ];
+        let disc = std::f64::consts::PI * r * r / 3.0;
+        let got = kernel_area(big, r, 0);
+        assert!((got - disc).abs() < 0.01 * disc, "{got} vs {disc}");
+        // A small right triangle at the centre, legs h, wholly inside:
+        // against a fine grid of cells over it.
+        let h = 0.5;
+        let small = [Vec3::ZERO, Vec3::new(h, 0.0, 0.0), Vec3::new(0.0, h, 0.0)];
+        let exact = kernel_area(small, r, 0);
+        let (mut fine, n) = (0.0, 1000);
+        let cell = h / n as f64;
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
+                if x + y <= h {
+                    let f = 1.0 - (x * x + y * y) / (r * r);
+                    fine += f * f * cell * cell;
+                }
+            }
+        }
+        assert!((exact - fine).abs() < 0.01 * exact, "{exact} vs {fine}");
     }
 
     #[test]
