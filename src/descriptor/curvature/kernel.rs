@@ -106,7 +106,7 @@ const MAX_DEPTH: u32 = 16;
 /// The integral of w(|x| / r) (0 past r) over triangle `p`, centre at the
 /// origin: exact for a triangle inside the ball, zero for one outside, and
 /// for one cut by the sphere the rule on the clamped weight after splits
-/// down to [`CUT_EDGE`] r (the weight is 0 with slope 0 at the sphere, so the
+/// down to a quarter of r (the weight is 0 with slope 0 at the sphere, so the
 /// rule's error is small and the sum moves continuously with the centre).
 pub fn kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
     let r2 = r * r;
