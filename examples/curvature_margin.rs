@@ -60,7 +60,7 @@ fn layers_of(name: &str, surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
         "exact" => CurvatureDescriptor::describe(surface, v, radii),
         "kernel-disc" => kernel_layers_at(surface, v, radii, KernelNorm::Disc),
         "kernel-area" => kernel_layers_at(surface, v, radii, KernelNorm::Area),
-        _ => panic!("descriptors are {DESCRIPTORS:?}"),
+        _ => unreachable!("descriptor names are checked in main"),
     }
 }
 
@@ -70,6 +70,13 @@ fn main() {
     if names.first().map(String::as_str) == Some("--descriptors") && names.len() > 1 {
         descriptors = names[1].split(',').map(String::from).collect();
         names.drain(..2);
+        if let Some(d) = descriptors
+            .iter()
+            .find(|d| !DESCRIPTORS.contains(&d.as_str()))
+        {
+            eprintln!("unknown descriptor {d}: the descriptors are {DESCRIPTORS:?}");
+            std::process::exit(2);
+        }
     }
     println!(
         "| scene | scaling | vertices | true / wrong | on copies / wrong | {} |",

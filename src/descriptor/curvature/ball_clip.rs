@@ -131,17 +131,17 @@ pub fn segment_in_ball(a: Vec3, b: Vec3, r2: f64) -> f64 {
 
 /// Where the line through `a` and `b` (at squared distances `a2`, `b2`
 /// from the origin) meets the sphere of squared radius `r2`.
-struct Crossing {
+pub(super) struct Crossing {
     /// The roots along a + t (b - a), t0 <= t1.
-    t0: f64,
-    t1: f64,
+    pub(super) t0: f64,
+    pub(super) t1: f64,
     /// Length of the segment inside the ball (the roots clamped to it).
     length: f64,
 }
 
 /// The line's crossing, or `None` where the segment has no inside part of
 /// positive length to find (a tangent, a point, a line that misses).
-fn crossing(a: Vec3, b: Vec3, a2: f64, b2: f64, r2: f64) -> Option<Crossing> {
+pub(super) fn crossing(a: Vec3, b: Vec3, a2: f64, b2: f64, r2: f64) -> Option<Crossing> {
     // |a + t d|^2 = r^2:  (d.d) t^2 + 2 (a.d) t + (a.a - r^2) = 0. With
     // one end inside the roots straddle it, so disc >= 0 up to rounding.
     let d = b - a;

@@ -11,6 +11,7 @@
 //! value moves continuously with the centre wherever the connected
 //! neighbourhood does not change.
 
+use super::ball_clip::crossing;
 use super::neighbourhood::{CurvatureState, full_tensor, gather, gaussian};
 use super::surface::Surface;
 use crate::math::{Vec3, symmetric_eigen};
@@ -43,7 +44,7 @@ pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64], norm: KernelNo
             for t in triangles {
                 let p = surface.corners(t).map(|q| q - ball.centre);
                 if norm == KernelNorm::Area {
-                    area += kernel_area(p, r, 0);
+                    area += kernel_area(p, r);
                 }
                 let edges = surface.curved_edges(t).iter().filter_map(|e| {
                     let side = e.side as usize;
@@ -68,33 +69,12 @@ pub fn kernel_layers_at(surface: &Surface, v: u32, radii: &[f64], norm: KernelNo
         .collect()
 }
 
-/// Dunavant's degree-4 rule on a triangle: barycentric points and weights
-/// (summing to 1), exact for the weight inside the ball.
-const RULE: [([f64; 3], f64); 6] = [
-    (
-        [0.108103018168070, 0.445948490915965, 0.445948490915965],
-        0.223381589678011,
-    ),
-    (
-        [0.445948490915965, 0.108103018168070, 0.445948490915965],
-        0.223381589678011,
-    ),
-    (
-        [0.445948490915965, 0.445948490915965, 0.108103018168070],
-        0.223381589678011,
-    ),
-    (
-        [0.816847572980459, 0.091576213509771, 0.091576213509771],
-        0.109951743655322,
-    ),
-    (
-        [0.091576213509771, 0.816847572980459, 0.091576213509771],
-        0.109951743655322,
-    ),
-    (
-        [0.091576213509771, 0.091576213509771, 0.816847572980459],
-        0.109951743655322,
-    ),
+/// Dunavant's degree-4 rule on a triangle, exact for the weight inside the
+/// ball: two orbits of points, barycentric (a, b, b) and its rotations,
+/// with each point's weight (the six sum to 1).
+const RULE_ORBITS: [(f64, f64, f64); 2] = [
+    (0.108103018168070, 0.445948490915965, 0.223381589678011),
+    (0.816847572980459, 0.091576213509771, 0.109951743655322),
 ];
 
 /// A triangle cut by the sphere is split in four until its longest edge is
@@ -108,7 +88,12 @@ const MAX_DEPTH: u32 = 16;
 /// for one cut by the sphere the rule on the clamped weight after splits
 /// down to a quarter of r (the weight is 0 with slope 0 at the sphere, so the
 /// rule's error is small and the sum moves continuously with the centre).
-pub fn kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
+fn kernel_area(p: [Vec3; 3], r: f64) -> f64 {
+    split_kernel_area(p, r, 0)
+}
+
+/// [`kernel_area`] of a triangle split `depth` times already.
+fn split_kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
     let r2 = r * r;
     let inside = p.iter().all(|q| q.length_squared() <= r2);
     if !inside {
@@ -132,17 +117,18 @@ pub fn kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
                 [m[0], m[1], m[2]],
             ]
             .iter()
-            .map(|&q| kernel_area(q, r, depth + 1))
+            .map(|&q| split_kernel_area(q, r, depth + 1))
             .sum();
         }
     }
     let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
     let inv = 1.0 / r2;
-    RULE.iter()
-        .map(|&(b, weight)| {
-            let x = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-            let f = (1.0 - x.length_squared() * inv).max(0.0);
-            weight * f * f
+    let w = |x: Vec3| (1.0 - x.length_squared() * inv).max(0.0).powi(2);
+    RULE_ORBITS
+        .iter()
+        .map(|&(a, b, weight)| {
+            let rotations = (0..3).map(|i| p[i] * a + p[(i + 1) % 3] * b + p[(i + 2) % 3] * b);
+            weight * rotations.map(w).sum::<f64>()
         })
         .sum::<f64>()
         * area
@@ -150,29 +136,24 @@ pub fn kernel_area(p: [Vec3; 3], r: f64, depth: u32) -> f64 {
 
 /// The integral of w(|x| / r) = (1 - |x|^2 / r^2)^2 (0 past r) along the
 /// segment `a`-`b`, centre at the origin.
-pub fn kernel_length(a: Vec3, b: Vec3, r: f64) -> f64 {
-    // 1 - |a + t d|^2 / r^2 = c0 + c1 t + c2 t^2, concave: positive on one
-    // interval of t, clamped to 0..1.
+fn kernel_length(a: Vec3, b: Vec3, r: f64) -> f64 {
+    // 1 - |a + t d|^2 / r^2 = c0 + c1 t + c2 t^2 is positive between the
+    // segment's line's crossings of the sphere, clamped to 0..1.
+    let r2 = r * r;
+    let Some(line) = crossing(a, b, a.length_squared(), b.length_squared(), r2) else {
+        return 0.0;
+    };
+    let (lo, hi) = (line.t0.max(0.0), line.t1.min(1.0));
+    if hi <= lo {
+        return 0.0;
+    }
     let d = b - a;
-    let inv = 1.0 / (r * r);
+    let inv = 1.0 / r2;
     let (c0, c1, c2) = (
         1.0 - a.length_squared() * inv,
         -2.0 * a.dot(d) * inv,
         -d.length_squared() * inv,
     );
-    if c2 >= 0.0 {
-        return 0.0;
-    }
-    let disc = c1 * c1 - 4.0 * c2 * c0;
-    if disc <= 0.0 {
-        return 0.0;
-    }
-    let root = disc.sqrt();
-    let (lo, hi) = ((-c1 + root) / (2.0 * c2), (-c1 - root) / (2.0 * c2));
-    let (lo, hi) = (lo.max(0.0), hi.min(1.0));
-    if hi <= lo {
-        return 0.0;
-    }
     // f^2 = c0^2 + 2 c0 c1 t + (c1^2 + 2 c0 c2) t^2 + 2 c1 c2 t^3 + c2^2 t^4.
     let antiderivative = |t: f64| {
         t * (c0 * c0
@@ -184,7 +165,6 @@ pub fn kernel_length(a: Vec3, b: Vec3, r: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::KernelNorm;
     use super::*;
     use crate::mesh::shapes::uv_sphere;
 
@@ -214,13 +194,13 @@ mod tests {
             Vec3::new(0.0, 10.0, 0.0),
         ];
         let disc = std::f64::consts::PI * r * r / 3.0;
-        let got = kernel_area(big, r, 0);
+        let got = kernel_area(big, r);
         assert!((got - disc).abs() < 0.01 * disc, "{got} vs {disc}");
         // A small right triangle at the centre, legs h, wholly inside:
         // against a fine grid of cells over it.
         let h = 0.5;
         let small = [Vec3::ZERO, Vec3::new(h, 0.0, 0.0), Vec3::new(0.0, h, 0.0)];
-        let exact = kernel_area(small, r, 0);
+        let exact = kernel_area(small, r);
         let (mut fine, n) = (0.0, 1000);
         let cell = h / n as f64;
         for i in 0..n {
