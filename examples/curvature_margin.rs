@@ -9,7 +9,12 @@
 //! - `kernel-disc`, `kernel-area`: the smooth variant of the layers
 //!   ([`kernel_layers_at`]: each edge weighted by a kernel that falls to 0
 //!   at the sphere, divided by a constant or by the kernel-weighted area)
-//!   under the same two scalings.
+//!   under the same two scalings;
+//! - `flat-disc`, `flat-area`: the same with a kernel flat out to r / 2
+//!   ([`KernelShape::FlatCentre`]);
+//! - `wide-area`: the falling kernel with the area norm over a ball sqrt(2)
+//!   times wider, so that its weighted mean squared distance from the
+//!   centre is the search's (r^2 / 2 on a plane): the same scale, smooth.
 //!
 //! Per scene and scaling, as shares of the best wrong distance (the
 //! smallest distance of a vertex farther than r_k from every true copy's
@@ -30,7 +35,7 @@
 //! the scene, and in brackets the share of vertices it keeps.
 //!
 //! cargo run --release --example curvature_margin -- [--descriptors
-//! exact,kernel-disc,kernel-area] SCENE...
+//! exact,kernel-disc,kernel-area,flat-disc,flat-area] SCENE...
 //!
 //! Model-template scenes of `../shared/scenes` (truth.json's transforms
 //! place c_T in the scene). Every vertex's six layers cost about 0.6 ms:
@@ -40,7 +45,7 @@
 mod common;
 
 use fast_reject::descriptor::curvature::{
-    CurvatureDescriptor, KernelNorm, Surface, VertexGrid, kernel_layers_at,
+    CurvatureDescriptor, KernelNorm, KernelShape, Surface, VertexGrid, kernel_layers_at,
 };
 use fast_reject::math::Vec3;
 use fast_reject::scene::SceneOptions;
@@ -51,15 +56,36 @@ use rayon::prelude::*;
 /// Cover radii, in units of r_1.
 const RHOS: [f64; 3] = [0.1, 0.25, 0.5];
 
-/// The descriptors compared: the search's and the two kernel variants.
-const DESCRIPTORS: [&str; 3] = ["exact", "kernel-disc", "kernel-area"];
+/// The descriptors compared: the search's and the kernel variants.
+const DESCRIPTORS: [&str; 6] = [
+    "exact",
+    "kernel-disc",
+    "kernel-area",
+    "flat-disc",
+    "flat-area",
+    "wide-area",
+];
 
 /// Descriptor `name`'s layers at vertex `v`.
 fn layers_of(name: &str, surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
     match name {
         "exact" => CurvatureDescriptor::describe(surface, v, radii),
-        "kernel-disc" => kernel_layers_at(surface, v, radii, KernelNorm::Disc),
-        "kernel-area" => kernel_layers_at(surface, v, radii, KernelNorm::Area),
+        "kernel-disc" => {
+            kernel_layers_at(surface, v, radii, KernelShape::Falling, KernelNorm::Disc)
+        }
+        "kernel-area" => {
+            kernel_layers_at(surface, v, radii, KernelShape::Falling, KernelNorm::Area)
+        }
+        "flat-disc" => {
+            kernel_layers_at(surface, v, radii, KernelShape::FlatCentre, KernelNorm::Disc)
+        }
+        "flat-area" => {
+            kernel_layers_at(surface, v, radii, KernelShape::FlatCentre, KernelNorm::Area)
+        }
+        "wide-area" => {
+            let wide: Vec<f64> = radii.iter().map(|r| r * std::f64::consts::SQRT_2).collect();
+            kernel_layers_at(surface, v, &wide, KernelShape::Falling, KernelNorm::Area)
+        }
         _ => unreachable!("descriptor names are checked in main"),
     }
 }

@@ -30,7 +30,7 @@ mod sample;
 mod surface;
 
 pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
-pub use kernel::{KernelNorm, kernel_layers_at};
+pub use kernel::{KernelNorm, KernelShape, kernel_layers_at};
 pub(crate) use mirror::MirrorTest;
 pub use mirror::handedness;
 pub use neighbourhood::CurvatureState;
