@@ -3,10 +3,11 @@
 //! kernel of s = |x - c| / r that falls to 0 at the sphere, integrated
 //! along the edge, and the tensor divided either by the weight's integral
 //! over a flat disc or by its integral over the neighbourhood's surface
-//! (the search's area, weighted the same way). Two kernels: w = (1 -
-//! s^2)^2 across the ball, and one flat (w = 1) out to r / 2 that then falls
-//! as 16/9 (1 - s^2)^2, which keeps the search's area-weighted mean near
-//! the centre and smooths only the rim.
+//! (the search's area, weighted the same way). Two smooth kernels ([`KernelShape`]):
+//! w = (1 - s^2)^2 across the ball, and one flat (w = 1) out to r / 2 that
+//! then falls as 16/9 (1 - s^2)^2, which keeps the search's area-weighted
+//! mean near the centre and smooths only the rim; and a uniform one, the
+//! search's own layers, as the oracle that ties this code to them.
 //!
 //! Why a candidate: the search's layer jumps as triangles cross the sphere
 //! (each brings its full weight in at once) and is divided by an area that
@@ -14,7 +15,7 @@
 //! value moves continuously with the centre wherever the connected
 //! neighbourhood does not change.
 
-use super::ball_clip::crossing;
+use super::ball_clip::{crossing, segment_in_ball};
 use super::neighbourhood::{CurvatureState, full_tensor, gather, gaussian};
 use super::surface::Surface;
 use crate::math::{Vec3, symmetric_eigen};
@@ -208,34 +209,24 @@ fn kernel_length(a: Vec3, b: Vec3, r: f64, shape: KernelShape) -> f64 {
     let falling = |radius: f64| falling_length(a, b, r, radius);
     match shape {
         KernelShape::Falling => falling(r),
-        KernelShape::Uniform => {
-            let (lo, hi) = inside_interval(a, b, r);
-            (hi - lo).max(0.0) * (b - a).length()
-        }
+        KernelShape::Uniform => segment_in_ball(a, b, r * r),
         KernelShape::FlatCentre => {
             // Length inside r / 2, plus the rim's falling weight between
             // the two spheres.
             let inner = FLAT_SHARE * r;
-            let (lo, hi) = inside_interval(a, b, inner);
-            (hi - lo).max(0.0) * (b - a).length() + RIM_SCALE * (falling(r) - falling(inner))
+            segment_in_ball(a, b, inner * inner) + RIM_SCALE * (falling(r) - falling(inner))
         }
-    }
-}
-
-/// The parameters t in 0..1 where a + t (b - a) lies inside the sphere of
-/// `radius` about the origin (empty when hi <= lo).
-fn inside_interval(a: Vec3, b: Vec3, radius: f64) -> (f64, f64) {
-    let r2 = radius * radius;
-    match crossing(a, b, a.length_squared(), b.length_squared(), r2) {
-        Some(line) => (line.t0.max(0.0), line.t1.min(1.0)),
-        None => (0.0, 0.0),
     }
 }
 
 /// The integral of (1 - |x|^2 / r^2)^2 along the part of segment `a`-`b`
 /// inside the sphere of `radius` <= r about the origin.
 fn falling_length(a: Vec3, b: Vec3, r: f64, radius: f64) -> f64 {
-    let (lo, hi) = inside_interval(a, b, radius);
+    let r2 = radius * radius;
+    let Some(line) = crossing(a, b, a.length_squared(), b.length_squared(), r2) else {
+        return 0.0;
+    };
+    let (lo, hi) = (line.t0.max(0.0), line.t1.min(1.0));
     if hi <= lo {
         return 0.0;
     }
