@@ -318,6 +318,11 @@ impl Scene {
         })
     }
 
+    /// The threads the scene's builds use, and so the searches on it.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
     /// The mesh.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
@@ -469,7 +474,7 @@ impl Scene {
             .surface
             .get_or_init(|| {
                 let start = now_ms();
-                let surface = Surface::new(&self.mesh);
+                let surface = Surface::new(&self.mesh, self.backend);
                 (surface, now_ms() - start)
             })
             .0

@@ -105,7 +105,14 @@ impl Backend {
         R: Send,
         F: Fn(usize) -> R + Sync + Send,
     {
-        self.filter_map(len, |i| Some(f(i)))
+        // Not `filter_map`: a known length lets rayon write every result in
+        // place, where filtering gathers pieces and copies them again.
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            return (0..len).into_par_iter().with_min_len(64).map(f).collect();
+        }
+        (0..len).map(f).collect()
     }
 
     /// Like [`Backend::map`] for a few expensive items (milliseconds each,
@@ -123,6 +130,37 @@ impl Backend {
             return (0..len).into_par_iter().map(f).collect();
         }
         (0..len).map(f).collect()
+    }
+
+    /// Sorts `data`. Unstable, so the backends agree only where no two items
+    /// compare equal: callers sort keys made unique (an index as the last
+    /// field).
+    pub fn sort_unstable<T: Ord + Send>(self, data: &mut [T]) {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            data.par_sort_unstable();
+            return;
+        }
+        data.sort_unstable();
+    }
+
+    /// Sorts each run of consecutive items that `same_run` joins, in place:
+    /// a second pass after a counting sort by a coarser key.
+    pub fn sort_runs_unstable<T, F>(self, data: &mut [T], same_run: F)
+    where
+        T: Ord + Send,
+        F: Fn(&T, &T) -> bool + Sync + Send,
+    {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            data.par_chunk_by_mut(same_run)
+                .for_each(|run| run.sort_unstable());
+            return;
+        }
+        data.chunk_by_mut(same_run)
+            .for_each(|run| run.sort_unstable());
     }
 
     /// Runs two independent jobs, at the same time where threads allow, so
@@ -164,6 +202,15 @@ mod tests {
                 sum.fetch_add(r.sum::<usize>(), Ordering::Relaxed);
             });
             assert_eq!(sum.into_inner(), 999 * 1000 / 2);
+            let mut keys: Vec<(u32, usize)> =
+                (0..50_000).map(|i| ((i * 7919 % 1000) as u32, i)).collect();
+            b.sort_unstable(&mut keys);
+            assert!(keys.is_sorted());
+            let mut runs: Vec<(u32, usize)> =
+                (0..50_000).rev().map(|i| ((i / 5) as u32, i)).collect();
+            b.sort_runs_unstable(&mut runs, |x, y| x.0 == y.0);
+            assert!(runs.chunks(5).all(|r| r.is_sorted()));
+            assert!(!runs.is_sorted());
         }
     }
 }

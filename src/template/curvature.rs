@@ -25,7 +25,7 @@ impl CurvatureTemplate {
         check_layers(layers)?;
         let (own_surface, target, radius) = match source {
             TemplateSource::Model(mesh) => {
-                let surface = Surface::new(mesh);
+                let surface = Surface::new(mesh, scene.backend());
                 let used: Vec<Vec3> = surface
                     .used_vertices()
                     .map(|v| surface.position(v))

@@ -2,12 +2,14 @@
 //! the triangles that share them, and each edge's signed dihedral angle,
 //! which the curvature descriptor needs.
 
+use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::{TriMesh, weld_vertices};
 
 /// A welded triangle mesh with edge adjacency, laid out for the curvature
 /// descriptor's neighbourhood walks: every array a walk reads is flat and
 /// indexed by triangle.
+#[derive(PartialEq)]
 pub struct Surface {
     positions: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
@@ -37,7 +39,7 @@ pub struct Surface {
 /// Connected patches of at most [`Patches::SIZE`] triangles: triangles of
 /// patch p are `start[p]..start[p + 1]`, and so are their curved edges in
 /// the owner order.
-#[derive(Default)]
+#[derive(Default, PartialEq)]
 struct Patches {
     of_triangle: Vec<u32>,
     start: Vec<u32>,
@@ -113,36 +115,23 @@ impl PatchLayout {
 
     /// Each patch's bounds, area and border, from `surface`, whose
     /// triangles are already in this layout's order.
-    fn summarize(self, surface: &Surface) -> Patches {
+    fn summarize(self, surface: &Surface, backend: Backend) -> Patches {
         let count = self.start.len() - 1;
         let mut of_triangle = vec![0u32; surface.triangles.len()];
         for (p, w) in self.start.windows(2).enumerate() {
             of_triangle[w[0] as usize..w[1] as usize].fill(p as u32);
         }
-        let mut patches = Patches {
-            of_triangle,
-            area: Vec::with_capacity(count),
-            moment: Vec::with_capacity(count),
-            centre: Vec::with_capacity(count),
-            radius: Vec::with_capacity(count),
-            border_start: vec![0],
-            border: Vec::new(),
-            start: self.start,
-        };
-        let mut border = Vec::new();
-        for p in 0..count {
-            let range = patches.start[p] as usize..patches.start[p + 1] as usize;
+        let start = &self.start;
+        let summaries = backend.map(count, |p| {
+            let range = start[p] as usize..start[p + 1] as usize;
             let corners = &surface.corners[range.clone()];
             let centre = corners.iter().flatten().fold(Vec3::ZERO, |a, &q| a + q)
                 * (1.0 / (3 * corners.len()) as f64);
-            patches.centre.push(centre);
-            patches.radius.push(
-                corners
-                    .iter()
-                    .flatten()
-                    .map(|q| q.distance(centre))
-                    .fold(0.0, f64::max),
-            );
+            let radius = corners
+                .iter()
+                .flatten()
+                .map(|q| q.distance(centre))
+                .fold(0.0, f64::max);
             let mut area = 0.0;
             let mut moment = Vec3::ZERO;
             for t in range.clone() {
@@ -150,25 +139,41 @@ impl PatchLayout {
                 area += surface.areas[t];
                 moment += (c[0] + c[1] + c[2]) * (surface.areas[t] / 3.0);
             }
-            patches.area.push(area);
-            patches.moment.push(moment);
-            border.clear();
-            border.extend(
-                range
-                    .flat_map(|t| surface.neighbours(t as u32).iter().copied())
-                    .filter(|&u| patches.of_triangle[u as usize] != p as u32),
-            );
+            let mut border: Vec<u32> = range
+                .flat_map(|t| surface.neighbours(t as u32).iter().copied())
+                .filter(|&u| of_triangle[u as usize] != p as u32)
+                .collect();
             border.sort_unstable();
             border.dedup();
+            (centre, radius, area, moment, border)
+        });
+        let mut patches = Patches {
+            area: Vec::with_capacity(count),
+            moment: Vec::with_capacity(count),
+            centre: Vec::with_capacity(count),
+            radius: Vec::with_capacity(count),
+            border_start: Vec::with_capacity(count + 1),
+            border: Vec::new(),
+            start: Vec::new(),
+            of_triangle: Vec::new(),
+        };
+        patches.border_start.push(0);
+        for (centre, radius, area, moment, border) in summaries {
+            patches.centre.push(centre);
+            patches.radius.push(radius);
+            patches.area.push(area);
+            patches.moment.push(moment);
             patches.border.extend_from_slice(&border);
             patches.border_start.push(patches.border.len() as u32);
         }
+        patches.start = self.start;
+        patches.of_triangle = of_triangle;
         patches
     }
 }
 
 /// An edge of the welded mesh.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Edge {
     /// End vertices (lower id first).
     pub ends: [u32; 2],
@@ -183,7 +188,7 @@ pub struct Edge {
 }
 
 /// What the curvature tensor needs of an edge with a nonzero angle.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurvedEdge {
     /// Unit direction (from the lower vertex id to the higher).
     pub direction: Vec3,
@@ -226,10 +231,56 @@ fn compressed(count: usize, pairs: &[(u32, u32)]) -> (Vec<u32>, Vec<u32>) {
     (start, list)
 }
 
+/// The edge that a run of half-edges with one key makes: its angle and
+/// normal where exactly two triangles share it, none elsewhere.
+fn edge_of_run(
+    run: &[(u64, u32, bool)],
+    triangles: &[[u32; 3]],
+    positions: &[Vec3],
+    face_normal: impl Fn(usize) -> Vec3,
+) -> Edge {
+    let ends = [(run[0].0 >> 32) as u32, run[0].0 as u32];
+    let (angle, normal) = match run {
+        &[(_, h1, forward1), (_, h2, forward2)] if h1 / 3 != h2 / 3 => {
+            let (t1, t2) = ((h1 / 3) as usize, (h2 / 3) as usize);
+            let (n1, mut n2) = (face_normal(t1), face_normal(t2));
+            // Consistently oriented neighbours walk the edge in opposite
+            // directions; if not, one is flipped.
+            if forward1 == forward2 {
+                n2 = -n2;
+            }
+            let turn = n1.cross(n2).length().atan2(n1.dot(n2));
+            // Convex when the far corner of the second triangle lies below
+            // the first one's plane.
+            let far = triangles[t2]
+                .iter()
+                .find(|&&v| v != ends[0] && v != ends[1])
+                .expect("a triangle has a corner off each edge");
+            let below = (positions[*far as usize] - positions[ends[0] as usize]).dot(n1);
+            let angle = if below <= 0.0 { turn } else { -turn };
+            let mean = n1 * (1.0 / n1.length()) + n2 * (1.0 / n2.length());
+            let len = mean.length();
+            if len > 0.0 {
+                (angle, mean * (1.0 / len))
+            } else {
+                (0.0, Vec3::ZERO)
+            }
+        }
+        _ => (0.0, Vec3::ZERO),
+    };
+    Edge {
+        ends,
+        angle,
+        normal,
+    }
+}
+
 impl Surface {
     /// Welds `mesh` (seams in glTF and OBJ split vertices that are one point
-    /// of the surface) and builds its adjacency.
-    pub fn new(mesh: &TriMesh) -> Surface {
+    /// of the surface) and builds its adjacency, with `backend`'s threads
+    /// (every backend builds the same surface: sorts have unique keys, and
+    /// parallel steps keep their input order).
+    pub fn new(mesh: &TriMesh, backend: Backend) -> Surface {
         let (welded, count) = weld_vertices(mesh.positions());
         let mut positions = vec![Vec3::ZERO; count];
         for (i, &id) in welded.iter().enumerate() {
@@ -247,70 +298,60 @@ impl Surface {
             spread_bits(cell(q.x)) | spread_bits(cell(q.y)) << 1 | spread_bits(cell(q.z)) << 2
         };
         // Keys computed once (not per comparison); ties keep file order.
-        let mut keyed: Vec<(u32, u32)> = (0..count as u32)
-            .map(|v| (morton(positions[v as usize]), v))
-            .collect();
-        keyed.sort_unstable();
+        let mut keyed: Vec<(u32, u32)> = backend.map(count, |v| (morton(positions[v]), v as u32));
+        backend.sort_unstable(&mut keyed);
         let order: Vec<u32> = keyed.into_iter().map(|(_, v)| v).collect();
         let mut rank = vec![0u32; count];
         for (new, &old) in order.iter().enumerate() {
             rank[old as usize] = new as u32;
         }
-        let positions: Vec<Vec3> = order.iter().map(|&v| positions[v as usize]).collect();
-        let ids: Vec<u32> = welded.iter().map(|&id| rank[id as usize]).collect();
-        let triangles: Vec<[u32; 3]> = mesh
-            .triangles()
-            .iter()
-            .map(|t| t.map(|i| ids[i as usize]))
-            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
-            .collect();
+        let positions: Vec<Vec3> = backend.map(count, |i| positions[order[i] as usize]);
+        let ids: Vec<u32> = backend.map(welded.len(), |i| rank[welded[i] as usize]);
+        drop((welded, rank, order));
+        let file_triangles = mesh.triangles();
+        let triangles: Vec<[u32; 3]> = backend.filter_map(file_triangles.len(), |i| {
+            let t = file_triangles[i].map(|v| ids[v as usize]);
+            (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]).then_some(t)
+        });
+        drop(ids);
         // By lowest vertex, ties in file order: a counting sort.
-        let by_lowest: Vec<(u32, u32)> = triangles
-            .iter()
-            .enumerate()
-            .map(|(i, t)| (t[0].min(t[1]).min(t[2]), i as u32))
-            .collect();
+        let by_lowest: Vec<(u32, u32)> = backend.map(triangles.len(), |i| {
+            let t = triangles[i];
+            (t[0].min(t[1]).min(t[2]), i as u32)
+        });
         let (_, sorted) = compressed(count, &by_lowest);
-        let triangles: Vec<[u32; 3]> = sorted.iter().map(|&i| triangles[i as usize]).collect();
-        let face_normal = |t: usize| {
-            let p = triangles[t].map(|v| positions[v as usize]);
-            (p[1] - p[0]).cross(p[2] - p[0])
-        };
-        // Half-edges sorted by their undirected key: equal keys are one edge.
-        // Bucketed by the lower end (a counting sort), then each small
-        // bucket sorted by the higher end.
-        let ends = |h: u32| {
-            let (t, i) = ((h / 3) as usize, (h % 3) as usize);
-            (triangles[t][i], triangles[t][(i + 1) % 3])
-        };
-        let lower_ends: Vec<(u32, u32)> = (0..triangles.len() as u32 * 3)
-            .map(|h| {
-                let (a, b) = ends(h);
-                (a.min(b), h)
-            })
-            .collect();
-        let (bucket_start, by_lower) = compressed(count, &lower_ends);
+        drop(by_lowest);
+        let triangles: Vec<[u32; 3]> = backend.map(sorted.len(), |i| triangles[sorted[i] as usize]);
+        drop(sorted);
+        // Half-edges sorted by their undirected key, then by id: equal keys
+        // are one edge. Bucketed by the lower end (a counting sort), then
+        // each small bucket sorted.
+        let ends = |h: usize| (triangles[h / 3][h % 3], triangles[h / 3][(h + 1) % 3]);
+        let lower_ends: Vec<(u32, u32)> = backend.map(triangles.len() * 3, |h| {
+            let (a, b) = ends(h);
+            (a.min(b), h as u32)
+        });
+        let (_, by_lower) = compressed(count, &lower_ends);
         drop(lower_ends);
-        let mut half: Vec<(u64, u32, bool)> = by_lower
-            .iter()
-            .map(|&h| {
-                let (a, b) = ends(h);
-                (((a.min(b) as u64) << 32) | a.max(b) as u64, h, a < b)
-            })
-            .collect();
+        let mut half: Vec<(u64, u32, bool)> = backend.map(by_lower.len(), |i| {
+            let h = by_lower[i];
+            let (a, b) = ends(h as usize);
+            (((a.min(b) as u64) << 32) | a.max(b) as u64, h, a < b)
+        });
         drop(by_lower);
-        for w in bucket_start.windows(2) {
-            half[w[0] as usize..w[1] as usize].sort_unstable_by_key(|h| (h.0, h.1));
-        }
+        backend.sort_runs_unstable(&mut half, |x, y| x.0 >> 32 == y.0 >> 32);
+        let mut run_start: Vec<u32> = backend.filter_map(half.len(), |i| {
+            (i == 0 || half[i].0 != half[i - 1].0).then_some(i as u32)
+        });
+        run_start.push(half.len() as u32);
+        let run = |e: usize| &half[run_start[e] as usize..run_start[e + 1] as usize];
+        let edge_count = run_start.len() - 1;
         let mut triangle_edges = vec![[0u32; 3]; triangles.len()];
-        let mut edges = Vec::with_capacity(half.len() / 2 + 1);
         let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(half.len());
-        let mut owned: Vec<(u32, u32)> = Vec::new();
-        for run in half.chunk_by(|x, y| x.0 == y.0) {
-            let e = edges.len() as u32;
-            let ends = [(run[0].0 >> 32) as u32, run[0].0 as u32];
+        for e in 0..edge_count {
+            let run = run(e);
             for (i, x) in run.iter().enumerate() {
-                triangle_edges[(x.1 / 3) as usize][(x.1 % 3) as usize] = e;
+                triangle_edges[(x.1 / 3) as usize][(x.1 % 3) as usize] = e as u32;
                 for y in &run[i + 1..] {
                     let (t, u) = (x.1 / 3, y.1 / 3);
                     if t != u {
@@ -319,53 +360,28 @@ impl Surface {
                     }
                 }
             }
-            let (angle, normal) = match run {
-                &[(_, h1, forward1), (_, h2, forward2)] if h1 / 3 != h2 / 3 => {
-                    let (t1, t2) = ((h1 / 3) as usize, (h2 / 3) as usize);
-                    let (n1, mut n2) = (face_normal(t1), face_normal(t2));
-                    // Consistently oriented neighbours walk the edge in
-                    // opposite directions; if not, one is flipped.
-                    if forward1 == forward2 {
-                        n2 = -n2;
-                    }
-                    let turn = n1.cross(n2).length().atan2(n1.dot(n2));
-                    // Convex when the far corner of the second triangle
-                    // lies below the first one's plane.
-                    let far = triangles[t2]
-                        .iter()
-                        .find(|&&v| v != ends[0] && v != ends[1])
-                        .expect("a triangle has a corner off each edge");
-                    let below = (positions[*far as usize] - positions[ends[0] as usize]).dot(n1);
-                    let angle = if below <= 0.0 { turn } else { -turn };
-                    let mean = n1 * (1.0 / n1.length()) + n2 * (1.0 / n2.length());
-                    let len = mean.length();
-                    if len > 0.0 {
-                        (angle, mean * (1.0 / len))
-                    } else {
-                        (0.0, Vec3::ZERO)
-                    }
-                }
-                _ => (0.0, Vec3::ZERO),
-            };
-            if angle != 0.0 {
-                // The owner and the half-edge it uses.
-                owned.push((run[0].1 / 3, run[0].1));
-            }
-            edges.push(Edge {
-                ends,
-                angle,
-                normal,
-            });
         }
-        drop(half);
         let (neighbour_start, neighbour_list) = compressed(triangles.len(), &neighbours);
         drop(neighbours);
-        // The patches come first, so that every per-triangle array is built
-        // once, already in patch order.
-        let layout = PatchLayout::new(triangles.len(), |t| {
-            &neighbour_list
-                [neighbour_start[t as usize] as usize..neighbour_start[t as usize + 1] as usize]
-        });
+        let face_normal = |t: usize| {
+            let p = triangles[t].map(|v| positions[v as usize]);
+            (p[1] - p[0]).cross(p[2] - p[0])
+        };
+        // The patches (a serial walk) beside the edges' angles: every
+        // per-triangle array is then built once, already in patch order.
+        let (layout, edges) = backend.join(
+            || {
+                PatchLayout::new(triangles.len(), |t| {
+                    &neighbour_list[neighbour_start[t as usize] as usize
+                        ..neighbour_start[t as usize + 1] as usize]
+                })
+            },
+            || {
+                backend.map(edge_count, |e| {
+                    edge_of_run(run(e), &triangles, &positions, face_normal)
+                })
+            },
+        );
         let (order, new_of_old) = (&layout.order, &layout.new_of_old);
         let mut new_start = Vec::with_capacity(triangles.len() + 1);
         new_start.push(0u32);
@@ -379,48 +395,46 @@ impl Surface {
             new_start.push(new_list.len() as u32);
         }
         drop((neighbour_start, neighbour_list));
-        let owned: Vec<(u32, u32)> = owned
-            .into_iter()
-            .map(|(t, half)| (new_of_old[t as usize], half))
-            .collect();
+        // A curved edge's owner is the triangle of its first half-edge.
+        let owned: Vec<(u32, u32)> = backend.filter_map(edge_count, |e| {
+            let first = half[run_start[e] as usize].1;
+            (edges[e].angle != 0.0).then_some((new_of_old[(first / 3) as usize], first))
+        });
+        drop((half, run_start));
         let (curved_start, owned_halves) = compressed(triangles.len(), &owned);
-        let curved = owned_halves
-            .iter()
-            .map(|&half| {
-                let side = half % 3;
-                let edge: Edge = edges[triangle_edges[(half / 3) as usize][side as usize] as usize];
-                let (a, b) = (
-                    positions[edge.ends[0] as usize],
-                    positions[edge.ends[1] as usize],
-                );
-                let length = (b - a).length();
-                CurvedEdge {
-                    direction: (b - a) * (1.0 / length),
-                    normal: edge.normal,
-                    angle: edge.angle,
-                    length,
-                    side: side as u8,
-                }
-            })
-            .collect();
+        drop(owned);
+        let curved = backend.map(owned_halves.len(), |i| {
+            let half = owned_halves[i];
+            let side = half % 3;
+            let edge: Edge = edges[triangle_edges[(half / 3) as usize][side as usize] as usize];
+            let (a, b) = (
+                positions[edge.ends[0] as usize],
+                positions[edge.ends[1] as usize],
+            );
+            let length = (b - a).length();
+            CurvedEdge {
+                direction: (b - a) * (1.0 / length),
+                normal: edge.normal,
+                angle: edge.angle,
+                length,
+                side: side as u8,
+            }
+        });
         // Each vertex's triangles in the sorted order, as ids in patch order.
-        let at_vertex: Vec<(u32, u32)> = triangles
-            .iter()
-            .enumerate()
-            .flat_map(|(ti, t)| t.map(|v| (v, new_of_old[ti])))
-            .collect();
-        let (vertex_start, vertex_triangles) = compressed(count, &at_vertex);
+        let at_vertex: Vec<[(u32, u32); 3]> = backend.map(triangles.len(), |ti| {
+            triangles[ti].map(|v| (v, new_of_old[ti]))
+        });
+        let (vertex_start, vertex_triangles) = compressed(count, at_vertex.as_flattened());
         drop(at_vertex);
-        let triangles: Vec<[u32; 3]> = order.iter().map(|&t| triangles[t as usize]).collect();
-        let triangle_edges = order.iter().map(|&t| triangle_edges[t as usize]).collect();
-        let corners: Vec<[Vec3; 3]> = triangles
-            .iter()
-            .map(|t| t.map(|v| positions[v as usize]))
-            .collect();
-        let areas = corners
-            .iter()
-            .map(|p| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length())
-            .collect();
+        let triangles: Vec<[u32; 3]> = backend.map(order.len(), |i| triangles[order[i] as usize]);
+        let triangle_edges = backend.map(order.len(), |i| triangle_edges[order[i] as usize]);
+        let corners: Vec<[Vec3; 3]> = backend.map(triangles.len(), |i| {
+            triangles[i].map(|v| positions[v as usize])
+        });
+        let areas = backend.map(corners.len(), |i| {
+            let p = corners[i];
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        });
         let mut surface = Surface {
             positions,
             triangles,
@@ -436,7 +450,7 @@ impl Surface {
             vertex_triangles,
             patches: Patches::default(),
         };
-        surface.patches = layout.summarize(&surface);
+        surface.patches = layout.summarize(&surface, backend);
         surface
     }
 

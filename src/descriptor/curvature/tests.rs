@@ -1,4 +1,5 @@
 use super::*;
+use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::shapes::uv_sphere;
@@ -39,7 +40,7 @@ fn height_field(n: usize, height: impl Fn(f64, f64) -> f64) -> TriMesh {
 #[test]
 fn a_sphere_has_curvature_one_over_r_squared_at_every_radius() {
     let radius = 2.0;
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192));
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192), Backend::Parallel);
     // Away from the poles, where the tessellation is most regular.
     let v = nearest_vertex(&s, Vec3::new(radius, 0.0, 0.0));
     let radii = [0.3, 0.6, 0.9, 1.2];
@@ -51,7 +52,7 @@ fn a_sphere_has_curvature_one_over_r_squared_at_every_radius() {
 
 #[test]
 fn a_plane_has_none() {
-    let s = Surface::new(&height_field(40, |_, _| 0.0));
+    let s = Surface::new(&height_field(40, |_, _| 0.0), Backend::Parallel);
     let v = nearest_vertex(&s, Vec3::ZERO);
     for g in CurvatureDescriptor::describe(&s, v, &[0.2, 0.4, 0.6]) {
         assert!(g.abs() < 1e-9, "{g}");
@@ -61,7 +62,10 @@ fn a_plane_has_none() {
 #[test]
 fn a_cylinder_has_about_none() {
     // z = sqrt(R^2 - x^2): curved across x only.
-    let s = Surface::new(&height_field(80, |x, _| (4.0 - x * x).sqrt()));
+    let s = Surface::new(
+        &height_field(80, |x, _| (4.0 - x * x).sqrt()),
+        Backend::Parallel,
+    );
     let v = nearest_vertex(&s, Vec3::new(0.0, 0.0, 2.0));
     for g in CurvatureDescriptor::describe(&s, v, &[0.2, 0.4, 0.6]) {
         // Next to the sphere's 1 / R^2 = 0.25.
@@ -72,7 +76,10 @@ fn a_cylinder_has_about_none() {
 #[test]
 fn a_saddle_is_negative() {
     // z = (x^2 - y^2) / 2: K = -1 at the origin.
-    let s = Surface::new(&height_field(80, |x, y| 0.5 * (x * x - y * y)));
+    let s = Surface::new(
+        &height_field(80, |x, y| 0.5 * (x * x - y * y)),
+        Backend::Parallel,
+    );
     let v = nearest_vertex(&s, Vec3::ZERO);
     let g = CurvatureDescriptor::describe(&s, v, &[0.2]);
     assert!(g[0] < -0.7 && g[0] > -1.3, "{g:?}");
@@ -95,7 +102,10 @@ fn rotation_and_reindexing_change_nothing() {
         turned.triangles().iter().rev().copied().collect(),
     )
     .unwrap();
-    let (a, b) = (Surface::new(&squashed), Surface::new(&reordered));
+    let (a, b) = (
+        Surface::new(&squashed, Backend::Parallel),
+        Surface::new(&reordered, Backend::Parallel),
+    );
     let radii = [0.15, 0.3, 0.45];
     for v in [0u32, 100, 300, 700] {
         let p = a.position(v);
@@ -112,8 +122,8 @@ fn rotation_and_reindexing_change_nothing() {
 #[test]
 fn retessellation_changes_little() {
     let want = 1.0;
-    let coarse = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96));
-    let fine = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 96, 160));
+    let coarse = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96), Backend::Parallel);
+    let fine = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 96, 160), Backend::Parallel);
     let radii = [0.3, 0.5];
     for s in [&coarse, &fine] {
         let v = nearest_vertex(s, Vec3::new(0.0, 1.0, 0.0));
@@ -125,7 +135,7 @@ fn retessellation_changes_little() {
 
 #[test]
 fn layers_grow_the_same_neighbourhood_as_a_fresh_gather() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64));
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Backend::Parallel);
     let v = nearest_vertex(&s, Vec3::new(1.0, 0.0, 0.0));
     let radii = [0.2, 0.4, 0.8];
     let incremental = CurvatureDescriptor::describe(&s, v, &radii);
@@ -140,7 +150,10 @@ fn a_separate_sheet_inside_the_ball_is_ignored() {
     let plane = height_field(40, |_, _| 0.0);
     let mut both = plane.clone();
     both.append(&uv_sphere(Vec3::new(0.0, 0.0, 0.35), 0.2, 16, 32));
-    let (a, b) = (Surface::new(&plane), Surface::new(&both));
+    let (a, b) = (
+        Surface::new(&plane, Backend::Parallel),
+        Surface::new(&both, Backend::Parallel),
+    );
     let v = nearest_vertex(&a, Vec3::ZERO);
     assert_eq!(
         CurvatureDescriptor::describe(&a, v, &[0.6]),
@@ -150,9 +163,12 @@ fn a_separate_sheet_inside_the_ball_is_ignored() {
 
 /// A surface with curvature of both signs and many sizes.
 fn bumpy() -> Surface {
-    Surface::new(&height_field(60, |x, y| {
-        0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.2 * x * y
-    }))
+    Surface::new(
+        &height_field(60, |x, y| {
+            0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.2 * x * y
+        }),
+        Backend::Parallel,
+    )
 }
 
 #[test]
@@ -231,7 +247,7 @@ fn rejecting_by_the_bounds_keeps_what_the_exact_values_keep() {
 
 #[test]
 fn the_cascade_distance_grows_layer_by_layer() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64));
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Backend::Parallel);
     let radii = [0.2, 0.4];
     let d = CurvatureDescriptor::new(&s, &radii, &[0.0, 0.0], 10.0);
     let v = nearest_vertex(&s, Vec3::new(1.0, 0.0, 0.0));
@@ -266,7 +282,10 @@ fn a_mirror_image_keeps_the_curvature_and_flips_the_handedness() {
             .collect(),
     )
     .unwrap();
-    let (a, b) = (Surface::new(&m), Surface::new(&mirrored));
+    let (a, b) = (
+        Surface::new(&m, Backend::Parallel),
+        Surface::new(&mirrored, Backend::Parallel),
+    );
     let radii = [0.3, 0.6, 0.9];
     let mut clear = 0;
     for v in [10u32, 200, 500, 900, 1500] {

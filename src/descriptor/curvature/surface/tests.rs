@@ -1,9 +1,12 @@
 use super::*;
-use crate::mesh::shapes::{cuboid, uv_sphere};
+use crate::mesh::shapes::{cuboid, torus, uv_sphere};
 
 #[test]
 fn a_cube_has_convex_right_angles_and_flat_diagonals() {
-    let s = Surface::new(&cuboid(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0)));
+    let s = Surface::new(
+        &cuboid(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0)),
+        Backend::Parallel,
+    );
     assert_eq!(s.vertex_count(), 8);
     let mut right = 0;
     let mut flat = 0;
@@ -31,7 +34,10 @@ fn turning_a_mesh_inside_out_flips_every_angle() {
         m.triangles().iter().map(|t| [t[0], t[2], t[1]]).collect(),
     )
     .unwrap();
-    let (a, b) = (Surface::new(&m), Surface::new(&flipped));
+    let (a, b) = (
+        Surface::new(&m, Backend::Parallel),
+        Surface::new(&flipped, Backend::Parallel),
+    );
     let angles = |s: &Surface| {
         let mut v: Vec<([u32; 2], f64)> = s.edges.iter().map(|e| (e.ends, e.angle)).collect();
         v.sort_by_key(|x| x.0);
@@ -49,7 +55,7 @@ fn turning_a_mesh_inside_out_flips_every_angle() {
 fn boundary_edges_have_no_angle() {
     let m = uv_sphere(Vec3::ZERO, 1.0, 8, 16);
     let open = m.filter_triangles(|t| t != 0).unwrap();
-    let s = Surface::new(&open);
+    let s = Surface::new(&open, Backend::Parallel);
     let zero = (0..s.edges.len() as u32)
         .filter(|&e| s.edge(e).angle == 0.0)
         .count();
@@ -58,7 +64,7 @@ fn boundary_edges_have_no_angle() {
 
 #[test]
 fn neighbours_share_an_edge() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 8, 16));
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 8, 16), Backend::Parallel);
     for t in 0..s.triangles().len() as u32 {
         let n = s.neighbours(t);
         assert_eq!(n.len(), 3, "triangle {t}");
@@ -67,7 +73,7 @@ fn neighbours_share_an_edge() {
 
 #[test]
 fn patches_are_small_connected_and_cover_every_triangle_once() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 24, 48));
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 24, 48), Backend::Parallel);
     let mut seen = vec![0; s.triangles().len()];
     for p in 0..s.patch_count() as u32 {
         let tris: Vec<u32> = s.patch_triangles(p).collect();
@@ -105,4 +111,35 @@ fn patches_are_small_connected_and_cover_every_triangle_once() {
         .map(|p| s.patch_curved_edges(p).len())
         .sum();
     assert_eq!(edges, s.edges.iter().filter(|e| e.angle != 0.0).count());
+}
+
+#[test]
+fn both_backends_build_the_same_surface() {
+    // A triangle soup (every corner its own vertex, so the weld matters),
+    // with a fin on one edge (three triangles share it, so no angle) and
+    // some triangles wound the other way: every branch of the build, on
+    // enough triangles that rayon splits the work.
+    let m = torus(Vec3::ZERO, 2.0, 0.7, 80, 40);
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for (i, t) in m.triangles().iter().enumerate() {
+        let n = positions.len() as u32;
+        positions.extend(t.map(|v| m.positions()[v as usize]));
+        triangles.push(if i % 97 == 0 {
+            [n, n + 2, n + 1]
+        } else {
+            [n, n + 1, n + 2]
+        });
+    }
+    let first = m.triangles()[0].map(|v| m.positions()[v as usize]);
+    let n = positions.len() as u32;
+    positions.extend([first[0], first[1], [0.0, 0.0, 3.0]]);
+    triangles.push([n, n + 1, n + 2]);
+    let soup = TriMesh::new(positions, triangles).unwrap();
+    let (serial, parallel) = (
+        Surface::new(&soup, Backend::Serial),
+        Surface::new(&soup, Backend::Parallel),
+    );
+    assert_eq!(serial.vertex_count(), m.positions().len() + 1);
+    assert!(serial == parallel);
 }
