@@ -272,7 +272,7 @@ impl Scene {
             options.resolution,
             options.max_voxel_work,
         )?;
-        let parts = split_parts(&mesh);
+        let parts = split_parts(&mesh, options.backend);
         let budget = options.memory_budget;
         let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
         let fits = |spec: &GridSpec| {
@@ -541,9 +541,9 @@ impl Scene {
 }
 
 /// The connected parts of `mesh` with their bounds and bounding spheres.
-fn split_parts(mesh: &TriMesh) -> Vec<ScenePart> {
+fn split_parts(mesh: &TriMesh, backend: Backend) -> Vec<ScenePart> {
     let mut taken = vec![u32::MAX; mesh.positions().len()];
-    connected_components(mesh)
+    connected_components(mesh, backend)
         .into_iter()
         .enumerate()
         .map(|(i, triangles)| ScenePart::new(mesh, triangles, i as u32, &mut taken))

@@ -5,12 +5,14 @@
 //! vertices along seams, so vertices at the same position are welded first;
 //! what is then joined by shared vertices is one component.
 
-use super::{TriMesh, weld_vertices};
+use super::{TriMesh, weld_vertices_on};
+use crate::exec::Backend;
 
 /// The triangles of each connected component (joined through welded
-/// vertices), in order of their first triangle; triangles ascending.
-pub fn connected_components(mesh: &TriMesh) -> Vec<Vec<u32>> {
-    let (ids, welded) = weld_vertices(mesh.positions());
+/// vertices), in order of their first triangle; triangles ascending. The
+/// weld uses `backend`'s threads.
+pub fn connected_components(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
+    let (ids, welded) = weld_vertices_on(mesh.positions(), backend);
     let mut parent: Vec<u32> = (0..welded as u32).collect();
     fn root(parent: &mut [u32], mut v: u32) -> u32 {
         while parent[v as usize] != v {
@@ -56,7 +58,7 @@ mod tests {
         mesh.append(&cuboid(Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 1.0, 1.0)));
         mesh.append(&cuboid(Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.5, 2.0, 1.0)));
         mesh.append(&uv_sphere(Vec3::new(5.0, 0.0, 0.0), 1.0, 8, 12));
-        let c = connected_components(&mesh);
+        let c = connected_components(&mesh, Backend::Parallel);
         let sizes: Vec<usize> = c.iter().map(Vec::len).collect();
         let sphere = mesh.triangles().len() - 36;
         assert_eq!(sizes, [24, 12, sphere]);
@@ -74,6 +76,6 @@ mod tests {
     fn solids_that_only_overlap_are_separate() {
         let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE);
         mesh.append(&cuboid(Vec3::splat(0.5), Vec3::splat(1.5)));
-        assert_eq!(connected_components(&mesh).len(), 2);
+        assert_eq!(connected_components(&mesh, Backend::Parallel).len(), 2);
     }
 }

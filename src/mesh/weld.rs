@@ -6,8 +6,43 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+use crate::exec::Backend;
+
 /// Maps every vertex to a dense id shared by all vertices at exactly the same
-/// position; returns the ids and how many distinct positions there are.
+/// position, numbered in order of first appearance; returns the ids and how
+/// many distinct positions there are. With threads, by sorting (the same
+/// ids as the hash map's).
+pub fn weld_vertices_on(positions: &[[f32; 3]], backend: Backend) -> (Vec<u32>, usize) {
+    if !backend.is_parallel() {
+        return weld_vertices(positions);
+    }
+    let key = |p: [f32; 3]| p.map(|c| (c + 0.0).to_bits());
+    let mut keyed: Vec<([u32; 3], u32)> =
+        backend.map(positions.len(), |i| (key(positions[i]), i as u32));
+    backend.sort_unstable(&mut keyed);
+    // Each run of equal keys: its first vertex (lowest index) gets the id.
+    let mut first = vec![0u32; positions.len()];
+    let mut is_first = vec![false; positions.len()];
+    for run in keyed.chunk_by(|a, b| a.0 == b.0) {
+        is_first[run[0].1 as usize] = true;
+        for &(_, i) in run {
+            first[i as usize] = run[0].1;
+        }
+    }
+    drop(keyed);
+    let mut id_of_first = vec![0u32; positions.len()];
+    let mut count = 0;
+    for (i, &f) in is_first.iter().enumerate() {
+        if f {
+            id_of_first[i] = count;
+            count += 1;
+        }
+    }
+    let ids = backend.map(positions.len(), |i| id_of_first[first[i] as usize]);
+    (ids, count as usize)
+}
+
+/// [`weld_vertices_on`] on one thread, with a hash map.
 pub fn weld_vertices(positions: &[[f32; 3]]) -> (Vec<u32>, usize) {
     let mut first: HashMap<[u32; 3], u32, BuildHasherDefault<FxHasher>> =
         HashMap::with_capacity_and_hasher(positions.len(), Default::default());
@@ -63,5 +98,20 @@ mod tests {
         let (ids, n) = weld_vertices(&p);
         assert_eq!(ids, vec![0, 1, 0, 0]);
         assert_eq!(n, 2);
+    }
+
+    #[test]
+    fn both_backends_give_the_same_ids() {
+        // Many repeats in scrambled order, signed zeros among them.
+        let p: Vec<[f32; 3]> = (0..20_000u32)
+            .map(|i| {
+                let j = (i * 7919) % 3001;
+                let z = if j % 7 == 0 { -0.0 } else { 0.0 };
+                [j as f32 * 0.5, (j % 13) as f32, z]
+            })
+            .collect();
+        let serial = weld_vertices_on(&p, Backend::Serial);
+        assert_eq!(serial.1, 3001);
+        assert_eq!(serial, weld_vertices_on(&p, Backend::Parallel));
     }
 }

@@ -92,7 +92,7 @@ impl VoxelTemplate {
                 TemplateSource::Model(model) => {
                     let sphere = bounding_sphere(model);
                     check_extent(2.0 * sphere.radius, scene, false)?;
-                    let parts = if connected_components(model).len() == 1 {
+                    let parts = if connected_components(model, scene.backend()).len() == 1 {
                         Parts::Components
                     } else {
                         Parts::OverlappingBoxes

@@ -4,7 +4,7 @@
 
 use crate::exec::Backend;
 use crate::math::Vec3;
-use crate::mesh::{TriMesh, weld_vertices};
+use crate::mesh::{TriMesh, weld_vertices_on};
 
 /// A welded triangle mesh with edge adjacency, laid out for the curvature
 /// descriptor's neighbourhood walks: every array a walk reads is flat and
@@ -281,7 +281,7 @@ impl Surface {
     /// (every backend builds the same surface: sorts have unique keys, and
     /// parallel steps keep their input order).
     pub fn new(mesh: &TriMesh, backend: Backend) -> Surface {
-        let (welded, count) = weld_vertices(mesh.positions());
+        let (welded, count) = weld_vertices_on(mesh.positions(), backend);
         let mut positions = vec![Vec3::ZERO; count];
         for (i, &id) in welded.iter().enumerate() {
             positions[id as usize] = mesh.vertex(i as u32);
