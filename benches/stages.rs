@@ -62,6 +62,8 @@ static ALLOCATOR: Counting = Counting;
 struct Measured {
     report: MatchReport,
     peak_mib: f64,
+    /// GPU submissions and kernels per search.
+    submissions: Option<(usize, usize)>,
 }
 
 /// (scene, true for a selection query)
@@ -115,17 +117,23 @@ fn main() {
             continue;
         }
         PEAK.store(HELD.load(Ordering::Relaxed), Ordering::Relaxed);
+        let before = gpu.as_ref().map(submissions);
         let best = (0..runs)
             .map(|_| run(name, select, &options, gpu.as_ref()))
             .min_by(|a, b| a.timings.total().total_cmp(&b.timings.total()))
             .unwrap();
         let peak_mib = PEAK.load(Ordering::Relaxed) as f64 / (1024.0 * 1024.0);
+        let submissions = gpu.as_ref().zip(before).map(|(gpu, (s0, k0))| {
+            let (s1, k1) = submissions(gpu);
+            ((s1 - s0) / runs, (k1 - k0) / runs)
+        });
         print_scene(name, &best);
         summary.push((
             name,
             Measured {
                 report: best,
                 peak_mib,
+                submissions,
             },
         ));
     }
@@ -133,6 +141,13 @@ fn main() {
     stage_table(&summary, curvature);
     if curvature || gpu.is_some() {
         per_candidate_table(&summary);
+    }
+    if gpu.is_some() {
+        println!("\n| scene | GPU submissions per search | kernels |\n|---|---:|---:|");
+        for (name, m) in &summary {
+            let (s, k) = m.submissions.unwrap_or_default();
+            println!("| {name} | {s} | {k} |");
+        }
     }
 }
 
@@ -246,6 +261,17 @@ fn describe(gpu: &Gpu) -> String {
 
 #[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
 fn describe(gpu: &Gpu) -> String {
+    match *gpu {}
+}
+
+/// Submissions and kernels the GPU has run so far.
+#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
+fn submissions(gpu: &Gpu) -> (usize, usize) {
+    gpu.submissions()
+}
+
+#[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
+fn submissions(gpu: &Gpu) -> (usize, usize) {
     match *gpu {}
 }
 

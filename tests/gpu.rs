@@ -35,7 +35,10 @@ fn assert_same_search(name: &str, gpu: &Gpu) {
     let template = common::template(name, false);
     let options = MatchOptions::DEFAULT;
     let cpu: MatchReport = search(&scene, &template, &options, &mut ()).unwrap();
+    let before = gpu.submissions();
     let on_gpu = search_on_gpu(&scene, &template, &options, &mut (), gpu).unwrap();
+    let after = gpu.submissions();
+    let (submissions, kernels) = (after.0 - before.0, after.1 - before.1);
     let info = on_gpu.gpu.as_ref().expect("the report names the GPU");
     assert_eq!(info.fallback, None, "{name}");
     let counts = |r: &MatchReport| -> Vec<(&str, usize, usize, usize)> {
@@ -46,6 +49,12 @@ fn assert_same_search(name: &str, gpu: &Gpu) {
     };
     assert_eq!(counts(&cpu), counts(&on_gpu), "{name}");
     assert!(counts(&cpu).iter().any(|c| c.0 == "harmonics" && c.2 > 100));
+    // Its parts fit the memory budget together: each layer is one
+    // submission for all of them (the stats hold one line per layer).
+    assert!(
+        submissions <= on_gpu.stages.len() && submissions < kernels,
+        "{name}: {submissions} submissions for {kernels} kernels"
+    );
     assert_eq!(cpu.instances.len(), on_gpu.instances.len(), "{name}");
     for (a, b) in cpu.instances.iter().zip(&on_gpu.instances) {
         // Same survivors, so the same blobs, placements and poses; the

@@ -3,6 +3,7 @@
 
 use super::solid::{Cells, GpuSolid};
 use super::{Dispatch, storage};
+use crate::descriptor::LocalFuture;
 use crate::descriptor::harmonics::{DEGREES, Signature, SphereSampler};
 
 /// The kernel's WGSL source.
@@ -32,13 +33,14 @@ struct Params {
 }
 
 impl GpuSolid<'_> {
-    /// The signatures of one chunk of candidates.
-    async fn sphere_chunk(
+    /// Starts one chunk of candidates: the future returns its kernel's
+    /// output.
+    fn start_chunk(
         &self,
         sampler: &SphereSampler,
         tables: &(wgpu::Buffer, wgpu::Buffer),
         voxels: &[[u16; 3]],
-    ) -> Result<Vec<Signature>, String> {
+    ) -> Result<LocalFuture<'_, Result<Vec<u8>, String>>, String> {
         let gpu = self.gpu;
         let level = sampler.level();
         let cells = self.cells(match level {
@@ -62,8 +64,8 @@ impl GpuSolid<'_> {
             groups_x: GROUPS_X,
         };
         let origins = storage(&gpu.device, "origins", bytemuck::cast_slice(&origins));
-        let bytes = gpu
-            .run_kernel(Dispatch {
+        Ok(gpu.start_kernel(
+            Dispatch {
                 pipeline: &gpu.spheres,
                 params: bytemuck::bytes_of(&params),
                 inputs: &[
@@ -76,18 +78,14 @@ impl GpuSolid<'_> {
                 ],
                 output_bytes: (voxels.len() * DEGREES * 4) as u64,
                 workgroups: [count.min(GROUPS_X), count.div_ceil(GROUPS_X)],
-            })
-            .await?;
-        let values: &[f32] = bytemuck::cast_slice(&bytes);
-        Ok(values
-            .chunks_exact(DEGREES)
-            .map(|s| std::array::from_fn(|l| s[l]))
-            .collect())
+            },
+            self.queue,
+        ))
     }
-}
 
-impl GpuSolid<'_> {
     /// The signatures of the sphere `sampler` around each of `voxels`.
+    /// Every chunk is started before the first is awaited, so that a
+    /// queue submits them together.
     pub(super) async fn signatures(
         &self,
         sampler: &SphereSampler,
@@ -102,9 +100,19 @@ impl GpuSolid<'_> {
                 bytemuck::cast_slice(&fractions),
             ),
         );
+        let started = voxels
+            .chunks(CHUNK)
+            .map(|chunk| self.start_chunk(sampler, &tables, chunk))
+            .collect::<Result<Vec<_>, String>>()?;
         let mut out = Vec::with_capacity(voxels.len());
-        for chunk in voxels.chunks(CHUNK) {
-            out.extend(self.sphere_chunk(sampler, &tables, chunk).await?);
+        for chunk in started {
+            let bytes = chunk.await?;
+            let values: &[f32] = bytemuck::cast_slice(&bytes);
+            out.extend(
+                values
+                    .chunks_exact(DEGREES)
+                    .map(|s| -> Signature { std::array::from_fn(|l| s[l]) }),
+            );
         }
         Ok(out)
     }

@@ -15,9 +15,11 @@
 //! the CPU.
 
 mod harmonics;
+mod queue;
 mod solid;
 mod volume;
 
+pub use queue::KernelQueue;
 pub use solid::GpuSolid;
 /// The wgpu this crate is built with: a device handed to [`Gpu::new`] must
 /// come from it.
@@ -60,6 +62,9 @@ pub struct Gpu {
     /// Balls' run tables on the device, the latest used first (see
     /// `volume::BallTables`).
     ball_tables: Mutex<Vec<volume::BallTables>>,
+    /// Submissions and kernels so far (see [`Gpu::submissions`]).
+    submissions: std::sync::atomic::AtomicUsize,
+    kernels: std::sync::atomic::AtomicUsize,
 }
 
 impl Gpu {
@@ -157,6 +162,8 @@ impl Gpu {
             balls,
             failures,
             ball_tables: Mutex::default(),
+            submissions: Default::default(),
+            kernels: Default::default(),
         };
         gpu.check("building the GPU pipelines")?;
         Ok(gpu)
@@ -208,15 +215,28 @@ struct Dispatch<'a> {
 }
 
 impl Gpu {
-    /// Runs `d` and returns its output's bytes. Blocks until the device is
-    /// done; every error the device reports on the way fails it.
-    async fn run_kernel(&self, d: Dispatch<'_>) -> std::result::Result<Vec<u8>, String> {
+    /// Starts `d`: its buffers are made now, and the future returns its
+    /// output's bytes, submitted on its own when awaited, or in `queue`'s
+    /// next submission beside other parts' kernels.
+    fn start_kernel<'s>(
+        &'s self,
+        d: Dispatch<'_>,
+        queue: Option<&'s KernelQueue<'_>>,
+    ) -> crate::descriptor::LocalFuture<'s, std::result::Result<Vec<u8>, String>> {
+        let kernel = self.prepare(d);
+        match queue {
+            Some(queue) => Box::pin(queue.enqueue(kernel)),
+            None => Box::pin(async move {
+                let mut outputs = self.submit(std::slice::from_ref(&kernel)).await?;
+                Ok(outputs.pop().unwrap_or_default())
+            }),
+        }
+    }
+
+    /// `d`'s buffers and bindings, ready to be encoded.
+    fn prepare(&self, d: Dispatch<'_>) -> queue::Prepared {
         use wgpu::util::DeviceExt;
         let device = &self.device;
-        // The device's complaints about this kernel come back here, in a
-        // browser too, where uncaptured errors arrive on the event loop.
-        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: d.params,
@@ -249,33 +269,86 @@ impl Gpu {
             layout: &d.pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
+        queue::Prepared {
+            pipeline: d.pipeline.clone(),
+            group,
+            workgroups: d.workgroups,
+            output,
+            readback,
+        }
+    }
+
+    /// Runs `kernels` in one submission and returns each one's output
+    /// bytes. Every error the device reports on the way fails them all.
+    async fn submit(
+        &self,
+        kernels: &[queue::Prepared],
+    ) -> std::result::Result<Vec<Vec<u8>>, String> {
+        let device = &self.device;
+        // The device's complaints about these kernels come back here, in a
+        // browser too, where uncaptured errors arrive on the event loop.
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut encoder = device.create_command_encoder(&Default::default());
         {
+            // One pass: each kernel writes its own output, so the device
+            // may run them side by side.
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(d.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(d.workgroups[0], d.workgroups[1], 1);
+            for k in kernels {
+                pass.set_pipeline(&k.pipeline);
+                pass.set_bind_group(0, &k.group, &[]);
+                pass.dispatch_workgroups(k.workgroups[0], k.workgroups[1], 1);
+            }
         }
-        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, d.output_bytes);
+        for k in kernels {
+            encoder.copy_buffer_to_buffer(&k.output, 0, &k.readback, 0, k.output.size());
+        }
         self.queue.submit([encoder.finish()]);
-        let mapped = Slot::new();
-        readback.map_async(wgpu::MapMode::Read, .., mapped.setter());
+        self.submissions
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.kernels
+            .fetch_add(kernels.len(), std::sync::atomic::Ordering::Relaxed);
+        let mapped: Vec<Slot<_>> = kernels
+            .iter()
+            .map(|k| {
+                let slot = Slot::new();
+                k.readback.map_async(wgpu::MapMode::Read, .., slot.setter());
+                slot
+            })
+            .collect();
         // Natively the device is polled here; a browser's answers on its
-        // event loop, which the await below returns to.
+        // event loop, which the awaits below return to.
         #[cfg(not(target_arch = "wasm32"))]
         device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| e.to_string())?;
-        let done = mapped.await;
+        let mut done = Vec::with_capacity(kernels.len());
+        for slot in mapped {
+            done.push(slot.await);
+        }
         for scope in [invalid, out_of_memory] {
             if let Some(error) = scope.pop().await {
                 return Err(format!("the GPU refused a kernel: {error}"));
             }
         }
         self.check("running a kernel").map_err(|e| e.to_string())?;
-        done.map_err(|e| format!("reading a kernel's output back: {e}"))?;
-        let view = readback.get_mapped_range(..).map_err(|e| e.to_string())?;
-        Ok(view.to_vec())
+        kernels
+            .iter()
+            .zip(done)
+            .map(|(k, done)| {
+                done.map_err(|e| format!("reading a kernel's output back: {e}"))?;
+                let view = k.readback.get_mapped_range(..).map_err(|e| e.to_string())?;
+                Ok(view.to_vec())
+            })
+            .collect()
+    }
+
+    /// Submissions made to the device so far, and the kernels they ran:
+    /// fewer submissions than kernels where parts share them
+    /// ([`KernelQueue`]).
+    pub fn submissions(&self) -> (usize, usize) {
+        use std::sync::atomic::Ordering::Relaxed;
+        (self.submissions.load(Relaxed), self.kernels.load(Relaxed))
     }
 }
 

@@ -5,7 +5,7 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use super::{Gpu, storage};
+use super::{Gpu, KernelQueue, storage};
 use crate::descriptor::harmonics::{Signature, SphereSampler};
 use crate::descriptor::{LayerBatch, LocalFuture};
 use crate::exec::Backend;
@@ -34,6 +34,9 @@ pub(super) struct Uploaded {
 /// A solid's cells on a GPU, for the volume and harmonics kernels.
 pub struct GpuSolid<'a> {
     pub(super) gpu: &'a Gpu,
+    /// Where its kernels wait to be submitted beside other solids', if
+    /// anywhere.
+    pub(super) queue: Option<&'a KernelQueue<'a>>,
     solid: &'a Solid,
     /// Used on the search's thread only (GPU handles are not `Send` in
     /// the threaded WebAssembly build).
@@ -45,8 +48,18 @@ impl<'a> GpuSolid<'a> {
     pub fn new(gpu: &'a Gpu, solid: &'a Solid) -> GpuSolid<'a> {
         GpuSolid {
             gpu,
+            queue: None,
             solid,
             uploaded: RefCell::default(),
+        }
+    }
+
+    /// `solid` on `queue`'s GPU, its kernels submitted with the others
+    /// `queue` holds.
+    pub fn queued(queue: &'a KernelQueue<'a>, solid: &'a Solid) -> GpuSolid<'a> {
+        GpuSolid {
+            queue: Some(queue),
+            ..GpuSolid::new(queue.gpu(), solid)
         }
     }
 

@@ -133,7 +133,9 @@ impl GpuSolid<'_> {
         })?;
         let tables = gpu.ball_tables(ball);
         let d = cells.dims;
-        let mut out = Vec::with_capacity(voxels.len());
+        // Every chunk is started before the first is awaited, so that a
+        // queue submits them together.
+        let mut started = Vec::new();
         for chunk in voxels.chunks(CHUNK) {
             let count = chunk.len() as u32;
             // A software adapter runs a few invocations at a time on the
@@ -157,15 +159,20 @@ impl GpuSolid<'_> {
                 .map(|v| [v[0].into(), v[1].into(), v[2].into(), 0])
                 .collect();
             let at = storage(&gpu.device, "voxels", bytemuck::cast_slice(&at));
-            let bytes = gpu
-                .run_kernel(Dispatch {
+            started.push(gpu.start_kernel(
+                Dispatch {
                     pipeline: &gpu.balls,
                     params: bytemuck::bytes_of(&params),
                     inputs: &[&cells.buffer, &at, &tables.runs, &tables.starts],
                     output_bytes: u64::from(count) * 4,
                     workgroups: [groups.min(GROUPS_X), groups.div_ceil(GROUPS_X)],
-                })
-                .await?;
+                },
+                self.queue,
+            ));
+        }
+        let mut out = Vec::with_capacity(voxels.len());
+        for chunk in started {
+            let bytes = chunk.await?;
             let counts: &[u32] = bytemuck::cast_slice(&bytes);
             out.extend(counts.iter().map(|&n| u64::from(n)));
         }

@@ -3,6 +3,8 @@
 //! volume and harmonics stages, then verification by placement and
 //! grouping.
 
+use std::cell::RefCell;
+
 use super::GpuRef;
 use super::congruent_parts::congruent_parts;
 use super::near_vertices::{self, NearVertices, template_gap};
@@ -139,24 +141,28 @@ pub(super) async fn search_voxels(
         lattice: &lattice,
     };
     let template_ms = now_ms() - t0;
-    let mut found = Found::default();
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
     let copies = congruent_parts(mesh, &lists);
-    let mut found_on: Vec<Vec<Instance>> = vec![Vec::new(); parts.len()];
-    for (k, &(i, part)) in parts.iter().enumerate() {
-        if let Some((original, motion)) = &copies[k] {
-            let moved: Vec<Instance> = found_on[*original]
-                .iter()
-                .map(|instance| moved_instance(instance, motion))
-                .collect();
-            found.instances.extend(moved);
-            continue;
+    let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
+    let observer = RefCell::new(observer);
+    let searched = searcher
+        .search_parts(&parts, &originals, &observer, gpu)
+        .await?;
+    // In the parts' order, whether searched one by one or side by side.
+    let mut found = Found::default();
+    for (k, copy) in copies.iter().enumerate() {
+        match (copy, &searched[k]) {
+            (Some((original, motion)), _) => {
+                let moved = searched[*original]
+                    .iter()
+                    .flat_map(|f| &f.instances)
+                    .map(|instance| moved_instance(instance, motion));
+                found.instances.extend(moved);
+            }
+            (None, Some(part)) => found.merge(part),
+            (None, None) => {}
         }
-        let mut runner = Runner { observer, gpu };
-        let instances = searcher.part(i, part, &mut found, &mut runner).await?;
-        found_on[k] = instances.clone();
-        found.instances.extend(instances);
     }
     // Best first over all parts, as within one.
     found.instances.sort_by(best_first);
@@ -217,14 +223,144 @@ fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
 }
 
 impl PartSearch<'_> {
+    /// What each part of `originals` (indices into `parts`) found, by
+    /// index: one by one on the CPU; on a GPU side by side, in waves that
+    /// fit the memory budget together, so that a layer is one submission
+    /// for all parts of a wave ([`crate::gpu::KernelQueue`]).
+    async fn search_parts(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        originals: &[usize],
+        observer: &RefCell<&mut dyn Observer>,
+        gpu: GpuRef<'_>,
+    ) -> Result<Vec<Option<Found>>> {
+        let mut searched: Vec<Option<Found>> = parts.iter().map(|_| None).collect();
+        #[cfg(feature = "gpu")]
+        if let Some(gpu) = gpu {
+            let queue = crate::gpu::KernelQueue::new(gpu);
+            for wave in self.waves(parts, originals) {
+                let started = now_ms();
+                let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Found>>> = wave
+                    .iter()
+                    .map(|(k, held)| {
+                        let (index, part) = parts[*k];
+                        let mut runner = Runner {
+                            observer,
+                            gpu: Some(gpu),
+                            queue: Some(&queue),
+                            held: held.clone(),
+                        };
+                        Box::pin(async move { self.part(index, part, &mut runner).await })
+                            as crate::descriptor::LocalFuture<'_, Result<Found>>
+                    })
+                    .collect();
+                let founds = match queue.run_together(tasks).await {
+                    Ok(mut founds) => {
+                        share_wave_time(&mut founds, now_ms() - started);
+                        founds
+                    }
+                    // Together past the budget: one by one, as they would
+                    // have run without the GPU.
+                    Err(Error::OverBudget { .. }) if wave.len() > 1 => {
+                        let mut founds = Vec::with_capacity(wave.len());
+                        for (k, _) in &wave {
+                            let (index, part) = parts[*k];
+                            let mut runner = Runner {
+                                observer,
+                                gpu: Some(gpu),
+                                queue: None,
+                                held: self.held.clone(),
+                            };
+                            founds.push(self.part(index, part, &mut runner).await?);
+                        }
+                        founds
+                    }
+                    Err(e) => return Err(e),
+                };
+                for ((k, _), found) in wave.iter().zip(founds) {
+                    searched[*k] = Some(found);
+                }
+            }
+            return Ok(searched);
+        }
+        for &k in originals {
+            let (index, part) = parts[k];
+            let mut runner = Runner {
+                observer,
+                gpu,
+                #[cfg(feature = "gpu")]
+                queue: None,
+                held: self.held.clone(),
+            };
+            searched[k] = Some(self.part(index, part, &mut runner).await?);
+        }
+        Ok(searched)
+    }
+
+    /// `originals` in waves (see [`plan_waves`]), each part with what the
+    /// search holds beside it: the template's side and the other parts of
+    /// its wave.
+    #[cfg(feature = "gpu")]
+    fn waves(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        originals: &[usize],
+    ) -> Vec<Vec<(usize, MemoryEstimate)>> {
+        let reach = self.template.radius() / self.lattice.spec.voxel_size;
+        let grids: Vec<Option<u64>> = originals
+            .iter()
+            .map(|&k| {
+                let (index, part) = parts[k];
+                match self.template.voxels_of_part(index) {
+                    // A selection's own part is voxelized already.
+                    Some(_) => Some(0),
+                    None if self.scene.fits_one_grid(part, self.lattice, reach) => self
+                        .scene
+                        .part_spec(part, self.lattice, reach)
+                        .ok()
+                        .map(|spec| voxel_bytes(&spec)),
+                    None => None,
+                }
+            })
+            .collect();
+        let free = self.scene.memory_budget().saturating_sub(self.held.total());
+        plan_waves(&grids, free)
+            .into_iter()
+            .map(|wave| {
+                wave.into_iter()
+                    .map(|(n, others)| {
+                        let mut held = self.held.clone();
+                        if others > 0 {
+                            held.add("the other parts searched beside it", others);
+                        }
+                        (originals[n], held)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The instances on scene part `index`: on its own grid, or window by
     /// window when it is too large for one.
     async fn part(
         &self,
         index: usize,
         part: &ScenePart,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Found> {
+        let mut found = Found::default();
+        found.instances = self.part_instances(index, part, &mut found, runner).await?;
+        Ok(found)
+    }
+
+    /// [`PartSearch::part`]'s instances; the rest of what it found goes
+    /// to `found`.
+    async fn part_instances(
+        &self,
+        index: usize,
+        part: &ScenePart,
         found: &mut Found,
-        runner: &mut Runner<'_>,
+        runner: &mut Runner<'_, '_>,
     ) -> Result<Vec<Instance>> {
         let (scene, template) = (self.scene, self.template);
         let backend = self.options.backend;
@@ -243,7 +379,7 @@ impl PartSearch<'_> {
             let voxels = match template.voxels_of_part(index) {
                 Some(voxels) => voxels,
                 None => {
-                    fresh = scene.voxelize_part(part, self.lattice, reach, &self.held)?;
+                    fresh = scene.voxelize_part(part, self.lattice, reach, &runner.held)?;
                     found.timings.voxelize += fresh.voxelize_ms();
                     &fresh
                 }
@@ -253,7 +389,7 @@ impl PartSearch<'_> {
                 .await;
         };
         let windowed = WindowedMesh::new(mesh.subset(part.triangles()), backend);
-        let mut held = self.held.clone();
+        let mut held = runner.held.clone();
         held.add("a large part's mesh for its windows", windowed.bytes());
         let mut instances: Vec<Instance> = Vec::new();
         for window in &windows {
@@ -322,7 +458,7 @@ impl PartSearch<'_> {
         window: Option<&Window>,
         near: Option<&NearVertices>,
         found: &mut Found,
-        runner: &mut Runner<'_>,
+        runner: &mut Runner<'_, '_>,
     ) -> Result<Vec<Instance>> {
         let (template, options) = (self.template, self.options);
         let backend = options.backend;
@@ -345,7 +481,7 @@ impl PartSearch<'_> {
             found.timings.match_ += now_ms() - t1;
             return Ok(Vec::new());
         }
-        let mut estimate = self.held.clone();
+        let mut estimate = runner.held.clone();
         estimate.add("candidate state", candidate_bytes(candidates.len()));
         if let Some(near) = near {
             estimate.add("cells near vertices", near.bytes());
@@ -359,9 +495,12 @@ impl PartSearch<'_> {
         })?;
         // The solid on the GPU, uploaded as its layers need it.
         #[cfg(feature = "gpu")]
-        let on_gpu = runner
-            .gpu
-            .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid()));
+        let on_gpu = match runner.queue {
+            Some(queue) => Some(crate::gpu::GpuSolid::queued(queue, voxels.solid())),
+            None => runner
+                .gpu
+                .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid())),
+        };
         let volume = VolumeDescriptor::with_balls(
             voxels.solid(),
             voxels.skin(),
@@ -407,7 +546,7 @@ impl PartSearch<'_> {
             all_anchors(self.verifiers.len()),
             backend,
             batch,
-            runner.observer,
+            &mut SharedObserver(runner.observer),
         )
         .await?;
         if let Some(reason) = stages.iter().find_map(|s| s.batch_failure()) {
@@ -595,11 +734,25 @@ fn moved_instance(instance: &Instance, motion: &Rigid) -> Instance {
     }
 }
 
-/// Where a search reports its layers, and what computes them besides the
-/// CPU.
-struct Runner<'r> {
-    observer: &'r mut dyn Observer,
+/// What one part's search runs with: where it reports its layers, what
+/// computes them besides the CPU, and what the search holds beside it.
+struct Runner<'r, 'o> {
+    observer: &'r RefCell<&'o mut dyn Observer>,
     gpu: GpuRef<'r>,
+    /// Where its kernels wait for the others of its wave.
+    #[cfg(feature = "gpu")]
+    queue: Option<&'r crate::gpu::KernelQueue<'r>>,
+    held: MemoryEstimate,
+}
+
+/// One observer for parts searched side by side: each layer's report
+/// borrows it in turn.
+struct SharedObserver<'r, 'o>(&'r RefCell<&'o mut dyn Observer>);
+
+impl Observer for SharedObserver<'_, '_> {
+    fn on_layer(&mut self, stats: &LayerStats) -> std::ops::ControlFlow<()> {
+        self.0.borrow_mut().on_layer(stats)
+    }
 }
 
 /// What the parts searched so far have found.
@@ -615,6 +768,21 @@ struct Found {
 }
 
 impl Found {
+    /// Adds what a part found.
+    fn merge(&mut self, part: &Found) {
+        self.instances.extend(part.instances.iter().cloned());
+        self.add_stats(part.stages.clone());
+        self.skin_voxels += part.skin_voxels;
+        self.windows += part.windows;
+        let (t, p) = (&mut self.timings, &part.timings);
+        t.voxelize += p.voxelize;
+        t.match_ += p.match_;
+        t.group += p.group;
+        if self.gpu_fallback.is_none() {
+            self.gpu_fallback = part.gpu_fallback.clone();
+        }
+    }
+
     /// Adds a part's layer statistics to those of the same stage and layer.
     fn add_stats(&mut self, stats: Vec<LayerStats>) {
         for s in stats {
@@ -631,6 +799,64 @@ impl Found {
                 None => self.stages.push(s),
             }
         }
+    }
+}
+
+/// Parts in waves searched side by side, in order: a wave takes parts
+/// while their grids (`grids[n]` bytes) fit `free` bytes together; a part
+/// with no size (searched in windows) is a wave of its own. Each part
+/// comes with the bytes of the others of its wave.
+#[cfg(feature = "gpu")]
+fn plan_waves(grids: &[Option<u64>], free: u64) -> Vec<Vec<(usize, u64)>> {
+    let mut waves: Vec<Vec<(usize, u64)>> = Vec::new();
+    let mut wave: Vec<(usize, u64)> = Vec::new();
+    let close = |wave: &mut Vec<(usize, u64)>, waves: &mut Vec<Vec<(usize, u64)>>| {
+        let total: u64 = wave.iter().map(|&(_, b)| b).sum();
+        waves.push(wave.drain(..).map(|(n, own)| (n, total - own)).collect());
+    };
+    for (n, grid) in grids.iter().enumerate() {
+        let total: u64 = wave.iter().map(|&(_, b)| b).sum();
+        let fits = grid.is_some_and(|own| total.saturating_add(own) <= free);
+        if !wave.is_empty() && !fits {
+            close(&mut wave, &mut waves);
+        }
+        wave.push((n, grid.unwrap_or(0)));
+        if grid.is_none() {
+            close(&mut wave, &mut waves);
+        }
+    }
+    if !wave.is_empty() {
+        close(&mut wave, &mut waves);
+    }
+    waves
+}
+
+/// The times of a wave's parts, which ran side by side: the wave's match
+/// time is its wall time less what each part spent alone voxelizing and
+/// grouping, and a layer's time the longest any part spent in it (they
+/// wait on the same submissions). Both go to the first part that has them.
+#[cfg(feature = "gpu")]
+fn share_wave_time(founds: &mut [Found], wall: f64) {
+    let alone: f64 = founds
+        .iter()
+        .map(|f| f.timings.voxelize + f.timings.group)
+        .sum();
+    for (n, found) in founds.iter_mut().enumerate() {
+        found.timings.match_ = if n == 0 { (wall - alone).max(0.0) } else { 0.0 };
+    }
+    let mut longest: Vec<((&str, usize), f64)> = Vec::new();
+    for s in founds.iter().flat_map(|f| &f.stages) {
+        let key = (s.descriptor, s.layer);
+        match longest.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, ms)) => *ms = ms.max(s.ms),
+            None => longest.push((key, s.ms)),
+        }
+    }
+    for s in founds.iter_mut().flat_map(|f| &mut f.stages) {
+        let slot = longest
+            .iter_mut()
+            .find(|(k, _)| *k == (s.descriptor, s.layer));
+        s.ms = slot.map_or(0.0, |(_, ms)| std::mem::take(ms));
     }
 }
 
@@ -694,4 +920,37 @@ fn too_much_for_template(radii: &[f64], lattice: &Lattice) -> String {
         "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
         lattice.resolution
     )
+}
+
+#[cfg(all(test, feature = "gpu"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_share_a_wave_while_their_grids_fit_together() {
+        let waves =
+            |grids: &[Option<u64>], free| -> Vec<Vec<(usize, u64)>> { plan_waves(grids, free) };
+        // All fit: one wave, each part held beside the others.
+        assert_eq!(
+            waves(&[Some(10), Some(20), Some(30)], 60),
+            [vec![(0, 50), (1, 40), (2, 30)]]
+        );
+        // The third would pass the budget: it starts the next wave.
+        assert_eq!(
+            waves(&[Some(10), Some(20), Some(31)], 60),
+            [vec![(0, 20), (1, 10)], vec![(2, 0)]]
+        );
+        // A part larger than the budget alone still gets a wave (its own
+        // check refuses it, as without the GPU).
+        assert_eq!(
+            waves(&[Some(70), Some(5)], 60),
+            [vec![(0, 0)], vec![(1, 0)]]
+        );
+        // A part searched in windows runs alone, between the others.
+        assert_eq!(
+            waves(&[Some(1), None, Some(1), Some(1)], 60),
+            [vec![(0, 0)], vec![(1, 0)], vec![(2, 1), (3, 1)]]
+        );
+        assert!(waves(&[], 60).is_empty());
+    }
 }
