@@ -158,3 +158,55 @@ fn a_balls_run_tables_are_uploaded_once_for_every_part() {
     assert_eq!(gpu.ball_tables(&small).ball.0, small.radius().to_bits());
     assert_eq!(kept(&gpu), 2);
 }
+
+#[test]
+fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
+    use crate::voxel::Ball;
+    let Some(gpu) = test_gpu() else { return };
+    let solids = [lumpy_solid(0.02), lumpy_solid(0.03)];
+    let ball = Ball::at_level(9.0, 1);
+    let queue = KernelQueue::new(&gpu);
+    let work: Vec<(Ball, Vec<[u16; 3]>)> = solids
+        .iter()
+        .map(|solid| {
+            let voxels = skin(solid.bits(), Backend::Serial)
+                .iter_ones()
+                .step_by(17)
+                .collect();
+            (ball.clone().bind(solid, Backend::Serial), voxels)
+        })
+        .collect();
+    let on_gpu: Vec<GpuSolid> = solids
+        .iter()
+        .map(|solid| GpuSolid::queued(&queue, solid))
+        .collect();
+    let (submissions, kernels) = gpu.submissions();
+    let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Vec<u64>, String>>> = on_gpu
+        .iter()
+        .zip(&work)
+        .map(|(g, (ball, voxels))| {
+            Box::pin(g.counts(ball, voxels)) as crate::descriptor::LocalFuture<'_, _>
+        })
+        .collect();
+    let got = pollster::block_on(queue.run_together(tasks)).unwrap();
+    assert_eq!(gpu.submissions(), (submissions + 1, kernels + 2));
+    for ((solid, (ball, voxels)), got) in solids.iter().zip(&work).zip(got) {
+        let want: Vec<u64> = voxels.iter().map(|&v| ball.count(solid, v).0).collect();
+        assert_eq!(got, want);
+    }
+    // The first failure ends the run; what the others queued is dropped.
+    let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Vec<u64>, String>>> = vec![
+        Box::pin(on_gpu[0].counts(&work[0].0, &work[0].1)),
+        Box::pin(async { Err("refused".to_string()) }),
+    ];
+    let failed = pollster::block_on(queue.run_together(tasks));
+    assert_eq!(failed, Err("refused".to_string()));
+    assert_eq!(gpu.submissions().0, submissions + 1);
+    // Tasks that never wait end in the first round.
+    let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<u32, String>>> =
+        vec![Box::pin(async { Ok(1) }), Box::pin(async { Ok(2) })];
+    assert_eq!(
+        pollster::block_on(queue.run_together(tasks)),
+        Ok(vec![1, 2])
+    );
+}
