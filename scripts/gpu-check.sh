@@ -11,7 +11,9 @@
 #                                     2 threads and all; logs in OUT
 #
 # FAST_REJECT_BENCH_RUNS (default 3) and GPU_CHECK_SCENES (names the bench
-# takes, default all) shorten a run.
+# takes, default all) shorten a run. GPU_CHECK_BASE=COMMIT at pack time
+# packs that commit's build too (built in a git worktree): run then
+# benches both on the GPU, alternating, for a before/after on one machine.
 # Seen working on an NVIDIA H100 (driver 580, its Vulkan ICD under
 # /usr/local/nvidia): docs/BENCHMARKS.md, "GPU backend on an NVIDIA H100".
 set -euo pipefail
@@ -32,6 +34,22 @@ for line in sys.stdin:
         print(m["executable"])')
   strip -o "$dir/fast-reject" target/release/fast-reject
   strip -o "$dir/stages" "$bench"
+  if [[ -n ${GPU_CHECK_BASE:-} ]]; then
+    base=$(mktemp -d)
+    git worktree add -f --detach "$base" "$GPU_CHECK_BASE" > /dev/null
+    mkdir -p "$dir/base"
+    (cd "$base" && CARGO_TARGET_DIR="$here/target/gpu-check-base" cargo build --release --bin fast-reject)
+    base_bench=$(cd "$base" && CARGO_TARGET_DIR="$here/target/gpu-check-base" \
+      cargo bench --bench stages --no-run --message-format=json 2>/dev/null |
+      python3 -c 'import json,sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "stages" and m.get("executable"):
+        print(m["executable"])')
+    strip -o "$dir/base/fast-reject" "$here/target/gpu-check-base/release/fast-reject"
+    strip -o "$dir/base/stages" "$base_bench"
+    git worktree remove --force "$base"
+  fi
   rm -rf "$dir/scenes" && cp -r "$shared/scenes" "$dir/scenes"
   cp scripts/gpu-check.sh scripts/gpu-compare.py "$dir/"
   # The Vulkan loader (a machine with only the driver lacks it).
@@ -55,13 +73,19 @@ run)
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>/dev/null || true
   export FAST_REJECT_SHARED=$dir
   python3 "$dir/gpu-compare.py" "$dir/fast-reject" "$dir/scenes" | tee "$out/same.txt"
-  bench() { # name backend threads
+  bench() { # name backend threads [bench binary]
     # shellcheck disable=SC2086 # GPU_CHECK_SCENES is a list of names.
     FAST_REJECT_BENCH_RUNS=${FAST_REJECT_BENCH_RUNS:-3} RAYON_NUM_THREADS=$3 \
-      FAST_REJECT_BENCH_BACKEND=$2 "$dir/stages" ${GPU_CHECK_SCENES:-} > "$out/$1.txt" 2>&1
+      FAST_REJECT_BENCH_BACKEND=$2 "${4:-$dir/stages}" ${GPU_CHECK_SCENES:-} > "$out/$1.txt" 2>&1
     echo "== $1"
     grep -E '^\| [a-z]' "$out/$1.txt" | grep -v -E ' (volume|harmonics) |us per candidate'
   }
+  if [[ -x $dir/base/stages ]]; then
+    bench base-gpu-2-a gpu 2 "$dir/base/stages"; bench gpu-2-a gpu 2
+    bench base-gpu-2-b gpu 2 "$dir/base/stages"; bench gpu-2-b gpu 2
+    bench cpu-2-a cpu 2
+    exit 0
+  fi
   threads=$(nproc)
   bench gpu-2-a gpu 2; bench cpu-2-a cpu 2; bench gpu-2-b gpu 2; bench cpu-2-b cpu 2
   bench gpu-all gpu "$threads"; bench cpu-all cpu "$threads"

@@ -307,11 +307,13 @@ impl PartSearch<'_> {
         originals: &[usize],
     ) -> Vec<Vec<(usize, MemoryEstimate)>> {
         let reach = self.template.radius() / self.lattice.spec.voxel_size;
+        // Each part binds its own copy of the volume balls.
+        let balls: u64 = self.balls.iter().map(Ball::table_bytes).sum();
         let grids: Vec<Option<u64>> = originals
             .iter()
             .map(|&k| {
                 let (index, part) = parts[k];
-                match self.template.voxels_of_part(index) {
+                let grid = match self.template.voxels_of_part(index) {
                     // A selection's own part is voxelized already.
                     Some(_) => Some(0),
                     None if self.scene.fits_one_grid(part, self.lattice, reach) => self
@@ -320,11 +322,12 @@ impl PartSearch<'_> {
                         .ok()
                         .map(|spec| voxel_bytes(&spec)),
                     None => None,
-                }
+                };
+                grid.map(|g| g.saturating_add(balls))
             })
             .collect();
         let free = self.scene.memory_budget().saturating_sub(self.held.total());
-        plan_waves(&grids, free)
+        plan_waves(&grids, free, WAVE_PARTS)
             .into_iter()
             .map(|wave| {
                 wave.into_iter()
@@ -802,12 +805,12 @@ impl Found {
     }
 }
 
-/// Parts in waves searched side by side, in order: a wave takes parts
-/// while their grids (`grids[n]` bytes) fit `free` bytes together; a part
-/// with no size (searched in windows) is a wave of its own. Each part
-/// comes with the bytes of the others of its wave.
+/// Parts in waves searched side by side, in order: a wave takes up to
+/// `max_parts` parts while what they hold (`grids[n]` bytes) fits `free`
+/// bytes together; a part with no size (searched in windows) is a wave of
+/// its own. Each part comes with the bytes of the others of its wave.
 #[cfg(feature = "gpu")]
-fn plan_waves(grids: &[Option<u64>], free: u64) -> Vec<Vec<(usize, u64)>> {
+fn plan_waves(grids: &[Option<u64>], free: u64, max_parts: usize) -> Vec<Vec<(usize, u64)>> {
     let mut waves: Vec<Vec<(usize, u64)>> = Vec::new();
     let mut wave: Vec<(usize, u64)> = Vec::new();
     let close = |wave: &mut Vec<(usize, u64)>, waves: &mut Vec<Vec<(usize, u64)>>| {
@@ -816,7 +819,8 @@ fn plan_waves(grids: &[Option<u64>], free: u64) -> Vec<Vec<(usize, u64)>> {
     };
     for (n, grid) in grids.iter().enumerate() {
         let total: u64 = wave.iter().map(|&(_, b)| b).sum();
-        let fits = grid.is_some_and(|own| total.saturating_add(own) <= free);
+        let fits =
+            grid.is_some_and(|own| total.saturating_add(own) <= free) && wave.len() < max_parts;
         if !wave.is_empty() && !fits {
             close(&mut wave, &mut waves);
         }
@@ -830,6 +834,14 @@ fn plan_waves(grids: &[Option<u64>], free: u64) -> Vec<Vec<(usize, u64)>> {
     }
     waves
 }
+
+/// Parts in a wave at most. A submission's fixed cost (0.1-0.25 ms
+/// measured on an H100, whatever its kernels) is shared by a wave's parts,
+/// while each kernel costs its own 30-130 us to build and submit: at 16
+/// parts the shared part is already below a tenth of a layer's cost, and
+/// more parts would mostly add memory (each holds its grids and balls).
+#[cfg(feature = "gpu")]
+const WAVE_PARTS: usize = 16;
 
 /// The times of a wave's parts, which ran side by side: the wave's match
 /// time is its wall time less what each part spent alone voxelizing and
@@ -929,7 +941,7 @@ mod tests {
     #[test]
     fn parts_share_a_wave_while_their_grids_fit_together() {
         let waves =
-            |grids: &[Option<u64>], free| -> Vec<Vec<(usize, u64)>> { plan_waves(grids, free) };
+            |grids: &[Option<u64>], free| -> Vec<Vec<(usize, u64)>> { plan_waves(grids, free, 3) };
         // All fit: one wave, each part held beside the others.
         assert_eq!(
             waves(&[Some(10), Some(20), Some(30)], 60),
@@ -950,6 +962,11 @@ mod tests {
         assert_eq!(
             waves(&[Some(1), None, Some(1), Some(1)], 60),
             [vec![(0, 0)], vec![(1, 0)], vec![(2, 1), (3, 1)]]
+        );
+        // No more than the most parts a wave takes.
+        assert_eq!(
+            waves(&[Some(1); 5], 60),
+            [vec![(0, 2), (1, 2), (2, 2)], vec![(3, 1), (4, 1)]]
         );
         assert!(waves(&[], 60).is_empty());
     }

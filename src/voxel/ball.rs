@@ -192,7 +192,6 @@ impl Ball {
 
     /// Bytes its run tables hold once bound (what
     /// [`crate::budget::ball_bytes`] estimates ahead).
-    #[cfg(test)]
     pub(crate) fn table_bytes(&self) -> u64 {
         let runs: usize = self.phases.iter().map(|p| p.spans.len()).sum();
         (runs * (size_of::<Span>() + size_of::<(i64, i64)>())) as u64
