@@ -307,13 +307,11 @@ impl PartSearch<'_> {
         originals: &[usize],
     ) -> Vec<Vec<(usize, MemoryEstimate)>> {
         let reach = self.template.radius() / self.lattice.spec.voxel_size;
-        // Each part binds its own copy of the volume balls.
-        let balls: u64 = self.balls.iter().map(Ball::table_bytes).sum();
         let grids: Vec<Option<u64>> = originals
             .iter()
             .map(|&k| {
                 let (index, part) = parts[k];
-                let grid = match self.template.voxels_of_part(index) {
+                match self.template.voxels_of_part(index) {
                     // A selection's own part is voxelized already.
                     Some(_) => Some(0),
                     None if self.scene.fits_one_grid(part, self.lattice, reach) => self
@@ -322,8 +320,7 @@ impl PartSearch<'_> {
                         .ok()
                         .map(|spec| voxel_bytes(&spec)),
                     None => None,
-                };
-                grid.map(|g| g.saturating_add(balls))
+                }
             })
             .collect();
         let free = self.scene.memory_budget().saturating_sub(self.held.total());
@@ -504,13 +501,22 @@ impl PartSearch<'_> {
                 .gpu
                 .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid())),
         };
+        #[cfg(feature = "gpu")]
+        let on_device = on_gpu.is_some();
+        #[cfg(not(feature = "gpu"))]
+        let on_device = false;
         let volume = VolumeDescriptor::with_balls(
             voxels.solid(),
             voxels.skin(),
             radii,
             self.balls
                 .iter()
-                .map(|b| b.clone().bind(voxels.solid(), backend))
+                .map(|b| match on_device {
+                    // The GPU counts from the runs alone, and a part of a
+                    // wave would hold a copy of them for nothing.
+                    true => b.clone().for_solid(voxels.solid(), backend),
+                    false => b.clone().bind(voxels.solid(), backend),
+                })
                 .collect(),
             self.template_volume.clone(),
             options.volume_threshold,
