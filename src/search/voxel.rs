@@ -845,7 +845,7 @@ fn plan_waves(grids: &[Option<u64>], free: u64, max_parts: usize) -> Vec<Vec<(us
 /// measured on an H100, whatever its kernels) is shared by a wave's parts,
 /// while each kernel costs its own 30-130 us to build and submit: at 16
 /// parts the shared part is already below a tenth of a layer's cost, and
-/// more parts would mostly add memory (each holds its grids and balls).
+/// more parts would mostly add memory (each holds its grids).
 #[cfg(feature = "gpu")]
 const WAVE_PARTS: usize = 16;
 
