@@ -124,14 +124,25 @@ impl<D: OnionDescriptor> Stage for D {
             for layer in order {
                 let start = begun;
                 let entered = live.len();
-                if let Some(batch) = batch {
-                    let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();
-                    self.prepare(layer, &points, batch).await;
-                }
-                live = backend.filter_map_owned(live, |(p, mut state, _)| {
-                    let d = self.extend(p, layer, &mut state);
-                    (d <= threshold).then_some((p, state, d))
-                });
+                let given = match batch {
+                    Some(batch) => {
+                        let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();
+                        self.prepare(layer, &points, batch).await
+                    }
+                    None => None,
+                };
+                live = match given {
+                    Some(values) => {
+                        backend.filter_map_zipped(live, values, |(p, mut state, _), value| {
+                            let d = self.extend_given(p, layer, &mut state, value);
+                            (d <= threshold).then_some((p, state, d))
+                        })
+                    }
+                    None => backend.filter_map_owned(live, |(p, mut state, _)| {
+                        let d = self.extend(p, layer, &mut state);
+                        (d <= threshold).then_some((p, state, d))
+                    }),
+                };
                 report(LayerStats {
                     descriptor: self.name(),
                     layer: layer + 1,
@@ -247,6 +258,7 @@ mod tests {
     impl OnionDescriptor for Table {
         /// The layers computed so far and the running distance.
         type State = (Vec<usize>, f64);
+        type Value = ();
 
         fn name(&self) -> &'static str {
             self.name

@@ -96,17 +96,24 @@ pub trait OnionDescriptor: Sync {
         1
     }
 
+    /// What a batch computes for one point at one layer (a ball's count,
+    /// a sphere's signature); `()` for a descriptor no batch computes.
+    type Value: Copy + Send + Sync;
+
     /// Called once before layer `layer` is computed for the live `points`
     /// when the search has a `batch`: a descriptor that can computes the
-    /// layer for all of them there and keeps the values for
-    /// [`Self::extend`]. Nothing by default.
+    /// layer for all of them there and returns the values in `points`'
+    /// order, which [`Self::extend_given`] then receives point by point
+    /// (no lookup: a shared table read by every point cost the GPU path
+    /// more than the CPU's own counting). `None`: [`Self::extend`]
+    /// computes the layer.
     fn prepare<'a>(
         &'a self,
         _layer: usize,
         _points: &'a [u32],
         _batch: &'a dyn LayerBatch,
-    ) -> LocalFuture<'a, ()> {
-        Box::pin(std::future::ready(()))
+    ) -> LocalFuture<'a, Option<Vec<Self::Value>>> {
+        Box::pin(std::future::ready(None))
     }
 
     /// Why a batch failed, if it did (the layers from then on ran on the
@@ -121,4 +128,17 @@ pub trait OnionDescriptor: Sync {
     /// a cheaper lower bound of it already passes the threshold, the bound
     /// may be returned instead: the point is dropped either way.
     fn extend(&self, point: u32, layer: usize, state: &mut Self::State) -> f64;
+
+    /// [`Self::extend`] with the layer's value at `point` computed by a
+    /// batch ([`Self::prepare`]).
+    fn extend_given(
+        &self,
+        point: u32,
+        layer: usize,
+        state: &mut Self::State,
+        given: Self::Value,
+    ) -> f64 {
+        let _ = given;
+        self.extend(point, layer, state)
+    }
 }

@@ -12,7 +12,7 @@
 //! are read the same way, so the small difference to an exact voxel count
 //! (tested with the voxel balls) cancels out of the comparison.
 
-use super::batch::PreparedLayer;
+use super::batch::BatchFailure;
 use super::{ClutterPolicy, LayerBatch, LocalFuture, OnionDescriptor};
 use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
@@ -38,9 +38,9 @@ pub struct VolumeDescriptor<'a> {
     clutter: ClutterPolicy,
     /// Leading layers that always count (see [`super::clutter`]).
     clean_layers: usize,
-    /// Where a batch counts the layers: the current layer's counts (the
-    /// same integers as the stage's own, so no guard band is needed).
-    prepared: PreparedLayer<u64>,
+    /// Where a batch counts the layers (the same integers as the stage's
+    /// own, so no guard band is needed): why it failed, if it did.
+    batch: BatchFailure,
 }
 
 /// The running state of a point in the volume stage, per anchor.
@@ -89,7 +89,7 @@ impl<'a> VolumeDescriptor<'a> {
             threshold,
             clutter: ClutterPolicy::OFF,
             clean_layers: usize::MAX,
-            prepared: PreparedLayer::new(),
+            batch: BatchFailure::new(),
         }
     }
 
@@ -163,6 +163,7 @@ impl<'a> VolumeDescriptor<'a> {
 
 impl OnionDescriptor for VolumeDescriptor<'_> {
     type State = VolumeState;
+    type Value = u64;
 
     fn name(&self) -> &'static str {
         "volume"
@@ -196,28 +197,44 @@ impl OnionDescriptor for VolumeDescriptor<'_> {
         layer: usize,
         points: &'b [u32],
         batch: &'b dyn LayerBatch,
-    ) -> LocalFuture<'b, ()> {
+    ) -> LocalFuture<'b, Option<Vec<u64>>> {
         Box::pin(async move {
-            let Some((sorted, voxels)) = self.prepared.begin(points, self.points) else {
-                return;
-            };
+            let voxels = self.batch.voxels_to_compute(points, self.points)?;
             let counts = batch.ball_counts(&self.balls[layer], &voxels).await;
-            self.prepared.finish(layer, sorted, counts);
+            self.batch.accept(counts, points.len())
         })
     }
 
     fn batch_failure(&self) -> Option<String> {
-        self.prepared.failure()
+        self.batch.reason()
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut VolumeState) -> f64 {
+        let v = self.points[point as usize];
+        self.compare(layer, state, || self.balls[layer].fraction(self.solid, v))
+    }
+
+    fn extend_given(&self, point: u32, layer: usize, state: &mut VolumeState, inside: u64) -> f64 {
+        let v = self.points[point as usize];
+        self.compare(layer, state, || {
+            inside as f64 / self.balls[layer].covered(v) as f64
+        })
+    }
+}
+
+impl VolumeDescriptor<'_> {
+    /// Adds layer `layer`, whose solid fraction `fraction` gives (read only
+    /// if an anchor still compares it), to `state`; returns the running
+    /// distance.
+    fn compare(
+        &self,
+        layer: usize,
+        state: &mut VolumeState,
+        fraction: impl FnOnce() -> f64,
+    ) -> f64 {
         let compared = state.alive & !state.excused;
         if compared != 0 {
-            let (ball, v) = (&self.balls[layer], self.points[point as usize]);
-            let f = match self.prepared.get(point, layer) {
-                Some(inside) => inside as f64 / ball.covered(v) as f64,
-                None => ball.fraction(self.solid, v),
-            };
+            let f = fraction();
             for (a, template) in self.templates.iter().enumerate() {
                 let bit = 1 << a;
                 if compared & bit == 0 {

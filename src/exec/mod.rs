@@ -78,6 +78,33 @@ impl Backend {
         items.into_iter().filter_map(f).collect()
     }
 
+    /// Like [`Backend::filter_map_owned`] over `items` paired with
+    /// `values` in order (equal lengths).
+    pub fn filter_map_zipped<T, V, R, F>(self, items: Vec<T>, values: Vec<V>, f: F) -> Vec<R>
+    where
+        T: Send,
+        V: Send,
+        R: Send,
+        F: Fn(T, V) -> Option<R> + Sync + Send,
+    {
+        assert_eq!(items.len(), values.len(), "one value per item");
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            use rayon::prelude::*;
+            return items
+                .into_par_iter()
+                .zip(values)
+                .with_min_len(16)
+                .filter_map(|(t, v)| f(t, v))
+                .collect();
+        }
+        items
+            .into_iter()
+            .zip(values)
+            .filter_map(|(t, v)| f(t, v))
+            .collect()
+    }
+
     /// `f(row, chunk)` for consecutive chunks of `row_len` items of `data`
     /// (the last may be shorter), writing in place.
     pub fn for_each_row<T, F>(self, data: &mut [T], row_len: usize, f: F)
@@ -196,6 +223,15 @@ mod tests {
             Backend::Serial.map_each(100, |i| i * i),
             Backend::Parallel.map_each(100, |i| i * i)
         );
+        // Each item meets its own value, and the kept ones stay in order.
+        let zipped = |b: Backend| {
+            let items: Vec<usize> = (0..10_000).collect();
+            let values: Vec<usize> = (0..10_000).map(|i| 3 * i).collect();
+            b.filter_map_zipped(items, values, |i, v| i.is_multiple_of(7).then_some((i, v)))
+        };
+        let expected: Vec<(usize, usize)> = (0..10_000).step_by(7).map(|i| (i, 3 * i)).collect();
+        assert_eq!(zipped(Backend::Serial), expected);
+        assert_eq!(zipped(Backend::Parallel), expected);
         for b in [Backend::Serial, Backend::Parallel] {
             let sum = AtomicUsize::new(0);
             b.for_each_range(1000, 7, |r| {

@@ -114,6 +114,7 @@ impl<'a> CurvatureDescriptor<'a> {
 
 impl OnionDescriptor for CurvatureDescriptor<'_> {
     type State = CurvatureState;
+    type Value = ();
 
     fn name(&self) -> &'static str {
         self.name

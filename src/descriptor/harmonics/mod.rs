@@ -45,7 +45,7 @@ pub use transform::{SphericalTransform, unfolded_tables};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::batch::PreparedLayer;
+use super::batch::BatchFailure;
 use super::{LayerBatch, LocalFuture};
 
 use super::volume::closest;
@@ -137,10 +137,10 @@ pub struct HarmonicsDescriptor<'a> {
     /// The template's signatures, one list per anchor.
     templates: Vec<Vec<Signature>>,
     threshold: f64,
-    /// Where a batch computes the layers: the current layer's signatures
-    /// with the batch's error bound, and the layers computed so far in
-    /// order (what a point recomputed exactly replays).
-    prepared: PreparedLayer<Signature>,
+    /// Where a batch computes the layers: why it failed if it did, the
+    /// batch's error bound, and the layers computed so far in order (what
+    /// a point recomputed exactly replays).
+    batch: BatchFailure,
     /// (f64 bits: read by every point's `extend`, on any thread.)
     batch_error: AtomicU64,
     done: Mutex<Vec<usize>>,
@@ -175,7 +175,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             clean_layers: usize::MAX,
             templates,
             threshold,
-            prepared: PreparedLayer::new(),
+            batch: BatchFailure::new(),
             batch_error: AtomicU64::new(0),
             done: Mutex::new(Vec::new()),
         }
@@ -337,6 +337,7 @@ pub struct HarmonicsState {
 
 impl OnionDescriptor for HarmonicsDescriptor<'_> {
     type State = HarmonicsState;
+    type Value = Signature;
 
     fn name(&self) -> &'static str {
         "harmonics"
@@ -400,7 +401,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         layer: usize,
         points: &'b [u32],
         batch: &'b dyn LayerBatch,
-    ) -> LocalFuture<'b, ()> {
+    ) -> LocalFuture<'b, Option<Vec<Signature>>> {
         Box::pin(async move {
             self.done
                 .lock()
@@ -410,32 +411,33 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                 f64::from(batch.max_sphere_error()).to_bits(),
                 Ordering::Relaxed,
             );
-            let Some((sorted, voxels)) = self.prepared.begin(points, self.points) else {
-                return;
-            };
+            let voxels = self.batch.voxels_to_compute(points, self.points)?;
             let signatures = batch.sphere_signatures(&self.spheres[layer], &voxels).await;
-            self.prepared.finish(layer, sorted, signatures);
+            self.batch.accept(signatures, points.len())
         })
     }
 
     fn batch_failure(&self) -> Option<String> {
-        self.prepared.failure()
+        self.batch.reason()
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut HarmonicsState) -> f64 {
-        let v = self.points[point as usize];
-        match self.prepared.get(point, layer) {
-            Some(given) => {
-                let mut trial = *state;
-                match self.update(v, layer, &mut trial, Some(given)) {
-                    Ok(()) => *state = trial,
-                    Err(Ambiguous) => *state = self.replay(point, state.entered),
-                }
-            }
-            None => {
-                // Exact: nothing is ambiguous.
-                let _ = self.update(v, layer, state, None);
-            }
+        // Exact: nothing is ambiguous.
+        let _ = self.update(self.points[point as usize], layer, state, None);
+        closest(&state.sum2, state.alive).sqrt()
+    }
+
+    fn extend_given(
+        &self,
+        point: u32,
+        layer: usize,
+        state: &mut HarmonicsState,
+        given: Signature,
+    ) -> f64 {
+        let mut trial = *state;
+        match self.update(self.points[point as usize], layer, &mut trial, Some(given)) {
+            Ok(()) => *state = trial,
+            Err(Ambiguous) => *state = self.replay(point, state.entered),
         }
         closest(&state.sum2, state.alive).sqrt()
     }
