@@ -65,6 +65,9 @@ pub struct Gpu {
     /// Submissions and kernels so far (see [`Gpu::submissions`]).
     submissions: std::sync::atomic::AtomicUsize,
     kernels: std::sync::atomic::AtomicUsize,
+    /// Nanoseconds spent waiting for submissions' outputs (see
+    /// [`Gpu::waited_ms`]).
+    waited_ns: std::sync::atomic::AtomicU64,
 }
 
 impl Gpu {
@@ -164,6 +167,7 @@ impl Gpu {
             ball_tables: Mutex::default(),
             submissions: Default::default(),
             kernels: Default::default(),
+            waited_ns: Default::default(),
         };
         gpu.check("building the GPU pipelines")?;
         Ok(gpu)
@@ -308,6 +312,7 @@ impl Gpu {
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         self.kernels
             .fetch_add(kernels.len(), std::sync::atomic::Ordering::Relaxed);
+        let waiting = crate::clock::now_ms();
         let mapped: Vec<Slot<_>> = kernels
             .iter()
             .map(|k| {
@@ -326,6 +331,10 @@ impl Gpu {
         for slot in mapped {
             done.push(slot.await);
         }
+        self.waited_ns.fetch_add(
+            ((crate::clock::now_ms() - waiting) * 1e6) as u64,
+            std::sync::atomic::Ordering::Relaxed,
+        );
         for scope in [invalid, out_of_memory] {
             if let Some(error) = scope.pop().await {
                 return Err(format!("the GPU refused a kernel: {error}"));
@@ -349,6 +358,14 @@ impl Gpu {
     pub fn submissions(&self) -> (usize, usize) {
         use std::sync::atomic::Ordering::Relaxed;
         (self.submissions.load(Relaxed), self.kernels.load(Relaxed))
+    }
+
+    /// Milliseconds the searches have spent waiting for the device so far,
+    /// from each submission to its outputs read back (the kernels'
+    /// running time and the transfers included): a search's match time
+    /// less this is what the host did.
+    pub fn waited_ms(&self) -> f64 {
+        self.waited_ns.load(std::sync::atomic::Ordering::Relaxed) as f64 / 1e6
     }
 }
 

@@ -61,7 +61,9 @@ pub struct Timings {
     pub surface: f64,
     /// Building the template and its descriptors.
     pub template: f64,
-    /// The cascade.
+    /// The cascade, with what each part's search does besides voxelizing
+    /// and verifying (its candidates near vertices, its mesh, its count
+    /// pyramid).
     pub match_: f64,
     /// Verifying and grouping survivors.
     pub group: f64,

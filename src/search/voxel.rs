@@ -348,8 +348,14 @@ impl PartSearch<'_> {
         part: &ScenePart,
         runner: &mut Runner<'_, '_>,
     ) -> Result<Found> {
+        let started = now_ms();
         let mut found = Found::default();
         found.instances = self.part_instances(index, part, &mut found, runner).await?;
+        // Matching is all of a part's search but voxelizing and verifying:
+        // its cells near vertices and its mesh too, as a wave of parts on
+        // the GPU (which can only time the whole) counts it.
+        found.timings.match_ =
+            (now_ms() - started - found.timings.voxelize - found.timings.group).max(0.0);
         Ok(found)
     }
 
@@ -464,7 +470,6 @@ impl PartSearch<'_> {
         let backend = options.backend;
         let radii = template.radii();
         let voxel = voxels.grid().spec().voxel_size;
-        let t1 = now_ms();
         let mut candidates = spaced(voxels.skin(), template.candidate_spacing() as u16);
         if let Some(window) = window {
             candidates.retain(|&c| window.holds(voxels.skin()[c as usize]));
@@ -478,7 +483,6 @@ impl PartSearch<'_> {
         };
         if candidates.is_empty() {
             // No copy can be anchored here (a slab's plain faces).
-            found.timings.match_ += now_ms() - t1;
             return Ok(Vec::new());
         }
         let mut estimate = runner.held.clone();
@@ -634,7 +638,6 @@ impl PartSearch<'_> {
         // The meshes' verdict at the exact pose.
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
         found.add_stats(stats);
-        found.timings.match_ += t2 - t1;
         found.timings.group += now_ms() - t2;
         Ok(instances)
     }
