@@ -14,11 +14,14 @@
 use crate::exec::Backend;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::TriMesh;
-use crate::voxel::{Grid, GridSpec, dilate};
+use crate::voxel::{AtomicGrid, Grid, GridSpec, dilate};
 
 /// Cells of the vertex grid at most, whatever the part's size: a larger
 /// part gets larger cells, which keep more candidates, never fewer.
 const MAX_CELLS: f64 = (1u64 << 27) as f64;
+
+/// Triangles a thread marks at a time.
+const MARK_GRAIN: usize = 4096;
 
 /// Which points of a part lie within reach of one of its vertices.
 pub(super) struct NearVertices {
@@ -49,18 +52,22 @@ impl NearVertices {
             return None;
         }
         let spec = GridSpec::around(bounds, cell).ok()?;
-        let mut marked = Grid::new(spec);
-        for &t in triangles {
-            for p in mesh.corners(t as usize) {
-                let [x, y, z] = spec.voxel_of(p);
-                if x >= 0 && y >= 0 && z >= 0 {
-                    let [x, y, z] = [x, y, z].map(|c| c as usize);
-                    if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
-                        marked.set(x, y, z);
+        // Marked from all threads: a part may have a million corners.
+        let marked = AtomicGrid::new(spec);
+        backend.for_each_range(triangles.len(), MARK_GRAIN, |range| {
+            for &t in &triangles[range] {
+                for p in mesh.corners(t as usize) {
+                    let [x, y, z] = spec.voxel_of(p);
+                    if x >= 0 && y >= 0 && z >= 0 {
+                        let [x, y, z] = [x, y, z].map(|c| c as usize);
+                        if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
+                            marked.set(x, y, z);
+                        }
                     }
                 }
             }
-        }
+        });
+        let marked = marked.into_grid();
         Some(NearVertices {
             cells: dilate(&marked, backend),
         })

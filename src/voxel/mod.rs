@@ -15,6 +15,7 @@ mod window;
 
 pub use ball::Ball;
 pub use fill::fill_solid;
+pub(crate) use grid::AtomicGrid;
 pub use grid::{Grid, GridSpec, PADDING};
 pub use pyramid::{CountLevel, MAX_LEVEL, Solid, level_for_radius};
 pub use skin::{dilate, skin, spaced};
