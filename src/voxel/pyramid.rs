@@ -38,8 +38,9 @@ pub struct CountLevel {
     stride: usize,
     prefix: Vec<u32>,
     /// Solid fraction of each block times 255, rounded; one trailing zero so
-    /// that two neighbours can always be read together.
-    occupancy: Vec<u8>,
+    /// that two neighbours can always be read together. Only spheres read
+    /// it, so it is made on first use: most levels serve balls alone.
+    occupancy: OnceLock<Vec<u8>>,
 }
 
 impl CountLevel {
@@ -81,9 +82,33 @@ impl CountLevel {
         self.prefix[row + x1 + 1] - self.prefix[row + x0]
     }
 
-    /// Block occupancy (solid fraction x 255), x fastest, then y, then z.
+    /// Block occupancy (solid fraction x 255), x fastest, then y, then z;
+    /// made now if needed, on this thread.
     pub fn occupancy(&self) -> &[u8] {
-        &self.occupancy
+        self.occupancy_with(Backend::Serial)
+    }
+
+    /// [`CountLevel::occupancy`], made with `backend` if needed. Made
+    /// outside the lock, as levels are: a thread that waited for it inside
+    /// a parallel loop could be handed that loop's own work.
+    pub fn occupancy_with(&self, backend: Backend) -> &[u8] {
+        if let Some(o) = self.occupancy.get() {
+            return o;
+        }
+        let (dims, stride) = (self.dims, self.stride);
+        let (shift, half) = (3 * self.level, 1u32 << (3 * self.level - 1));
+        let mut occupancy = vec![0u8; dims[0] * dims[1] * dims[2] + 1];
+        backend.for_each_row(
+            &mut occupancy[..dims[0] * dims[1] * dims[2]],
+            dims[0],
+            |r, out| {
+                let sums = &self.prefix[r * stride..(r + 1) * stride];
+                for x in 0..out.len() {
+                    out[x] = (((sums[x + 1] - sums[x]) * 255 + half) >> shift) as u8;
+                }
+            },
+        );
+        self.occupancy.get_or_init(|| occupancy)
     }
 
     /// Solid voxels in block (x, y, z).
@@ -115,24 +140,12 @@ impl CountLevel {
                 *x = sum;
             }
         });
-        let (shift, half) = (3 * level, 1u32 << (3 * level - 1));
-        let mut occupancy = vec![0u8; dims[0] * dims[1] * dims[2] + 1];
-        backend.for_each_row(
-            &mut occupancy[..dims[0] * dims[1] * dims[2]],
-            dims[0],
-            |r, out| {
-                let sums = &prefix[r * stride..(r + 1) * stride];
-                for x in 0..out.len() {
-                    out[x] = (((sums[x + 1] - sums[x]) * 255 + half) >> shift) as u8;
-                }
-            },
-        );
         CountLevel {
             level,
             dims,
             stride,
             prefix,
-            occupancy,
+            occupancy: OnceLock::new(),
         }
     }
 

@@ -113,7 +113,7 @@ impl SphereSampler {
             }
         }
         if level > 0 {
-            solid.level(level, backend);
+            solid.level(level, backend).occupancy_with(backend);
         }
         s
     }
