@@ -1,6 +1,7 @@
 //! One solid on the device: what its kernels read, uploaded on first use
 //! and kept while the solid is searched.
 
+use std::borrow::Cow;
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -70,19 +71,28 @@ impl<'a> GpuSolid<'a> {
         }
         let grid = self.solid.bits();
         let level = |l| self.solid.level(l, Backend::Serial);
-        let (bytes, dims, row_stride): (Vec<u8>, _, _) = match cells {
+        // Borrowed where the layout already fits: the driver copies them
+        // anyway, and a copy of our own held a large level twice.
+        let (bytes, dims, row_stride): (Cow<[u8]>, _, _) = match cells {
             Cells::Bits => (
-                bytemuck::cast_slice(grid.words()).to_vec(),
+                Cow::Borrowed(bytemuck::cast_slice(grid.words())),
                 grid.dims(),
                 2 * grid.words_per_row(),
             ),
             Cells::Occupancy(l) => {
-                let mut bytes = level(l).occupancy().to_vec();
-                bytes.resize(bytes.len().next_multiple_of(4), 0);
+                let occupancy = level(l).occupancy();
+                let bytes = match occupancy.len() % 4 {
+                    0 => Cow::Borrowed(occupancy),
+                    _ => {
+                        let mut padded = occupancy.to_vec();
+                        padded.resize(occupancy.len().next_multiple_of(4), 0);
+                        Cow::Owned(padded)
+                    }
+                };
                 (bytes, level(l).dims(), level(l).dims()[0])
             }
             Cells::RunningSums(l) => (
-                bytemuck::cast_slice(level(l).prefix()).to_vec(),
+                Cow::Borrowed(bytemuck::cast_slice(level(l).prefix())),
                 level(l).dims(),
                 level(l).stride(),
             ),
