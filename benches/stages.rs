@@ -119,19 +119,19 @@ fn main() {
             continue;
         }
         PEAK.store(HELD.load(Ordering::Relaxed), Ordering::Relaxed);
-        let before = gpu.as_ref().map(submissions);
+        let before = gpu.as_ref().map(counters);
         let (best, waited_ms) = (0..runs)
             .map(|_| {
-                let waited = gpu.as_ref().map(waited_ms);
+                let waited = gpu.as_ref().map(|g| counters(g).2);
                 let report = run(name, select, &options, gpu.as_ref());
-                let waited = gpu.as_ref().zip(waited).map(|(g, w)| waited_ms(g) - w);
+                let waited = gpu.as_ref().zip(waited).map(|(g, w)| counters(g).2 - w);
                 (report, waited)
             })
             .min_by(|a, b| a.0.timings.total().total_cmp(&b.0.timings.total()))
             .unwrap();
         let peak_mib = PEAK.load(Ordering::Relaxed) as f64 / (1024.0 * 1024.0);
-        let submissions = gpu.as_ref().zip(before).map(|(gpu, (s0, k0))| {
-            let (s1, k1) = submissions(gpu);
+        let submissions = gpu.as_ref().zip(before).map(|(gpu, (s0, k0, _))| {
+            let (s1, k1, _) = counters(gpu);
             ((s1 - s0) / runs, (k1 - k0) / runs)
         });
         print_scene(name, &best);
@@ -278,25 +278,16 @@ fn describe(gpu: &Gpu) -> String {
     match *gpu {}
 }
 
-/// Submissions and kernels the GPU has run so far.
+/// Submissions and kernels the GPU has run so far, and the milliseconds
+/// searches have waited for it.
 #[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
-fn submissions(gpu: &Gpu) -> (usize, usize) {
-    gpu.submissions()
+fn counters(gpu: &Gpu) -> (usize, usize, f64) {
+    let (submissions, kernels) = gpu.submissions();
+    (submissions, kernels, gpu.waited_ms())
 }
 
 #[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
-fn submissions(gpu: &Gpu) -> (usize, usize) {
-    match *gpu {}
-}
-
-/// Milliseconds the GPU's searches have waited for it so far.
-#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
-fn waited_ms(gpu: &Gpu) -> f64 {
-    gpu.waited_ms()
-}
-
-#[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
-fn waited_ms(gpu: &Gpu) -> f64 {
+fn counters(gpu: &Gpu) -> (usize, usize, f64) {
     match *gpu {}
 }
 

@@ -137,12 +137,13 @@ pub struct HarmonicsDescriptor<'a> {
     /// The template's signatures, one list per anchor.
     templates: Vec<Vec<Signature>>,
     threshold: f64,
-    /// Where a batch computes the layers: why it failed if it did, the
-    /// batch's error bound, and the layers computed so far in order (what
-    /// a point recomputed exactly replays).
+    /// Where a batch computes the layers: why it failed, if it did.
     batch: BatchFailure,
-    /// (f64 bits: read by every point's `extend`, on any thread.)
+    /// The batch's error bound per degree (f64 bits: read by every
+    /// point's `extend_given`, on any thread).
     batch_error: AtomicU64,
+    /// The layers computed so far, in order: what a point recomputed
+    /// exactly replays.
     done: Mutex<Vec<usize>>,
 }
 
