@@ -18,7 +18,7 @@ struct Params {
     groups_x: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 // Level 0: the bit grid's u64 words read as pairs of u32. Above: occupancy
 // bytes packed four to a word.
 @group(0) @binding(1) var<storage, read> cells: array<u32>;

@@ -207,9 +207,11 @@ impl Gpu {
     }
 }
 
-/// One kernel run: the uniform `params` at binding 0, `inputs` at the
-/// next bindings in order, and an output buffer of `output_bytes` after
-/// them, which is read back.
+/// One kernel run: `params` at binding 0, `inputs` at the next bindings
+/// in order, and an output buffer of `output_bytes` after them, which is
+/// read back. The params are a storage buffer, not a uniform one:
+/// lavapipe compiles a variant of the kernel for every uniform buffer a
+/// dispatch reads, and keeps it (180 KB and a compile per kernel).
 struct Dispatch<'a> {
     pipeline: &'a wgpu::ComputePipeline,
     params: &'a [u8],
@@ -241,10 +243,10 @@ impl Gpu {
     fn prepare(&self, d: Dispatch<'_>) -> queue::Prepared {
         use wgpu::util::DeviceExt;
         let device = &self.device;
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: d.params,
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: wgpu::BufferUsages::STORAGE,
         });
         let output = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("output"),
@@ -258,7 +260,7 @@ impl Gpu {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let resources = std::iter::once(&uniform)
+        let resources = std::iter::once(&params)
             .chain(d.inputs.iter().copied())
             .chain(std::iter::once(&output));
         let entries: Vec<wgpu::BindGroupEntry> = resources

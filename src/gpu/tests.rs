@@ -20,6 +20,13 @@ fn every_wgsl_source_is_valid() {
         )
         .validate(&module)
         .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+        // Lavapipe (Mesa 22) compiles and keeps a kernel variant for each
+        // uniform buffer a dispatch reads: 180 KB a kernel, 4.8 GB on a
+        // scene of 3 000 parts. Parameters travel in storage buffers.
+        assert!(
+            !source.contains("var<uniform>"),
+            "{name}: parameters go in a storage buffer"
+        );
     }
 }
 

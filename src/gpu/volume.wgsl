@@ -21,7 +21,7 @@ struct Params {
     lanes: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 // Level 0: the bit grid's u64 words as pairs of u32; above: running sums,
 // each row starting with 0.
 @group(0) @binding(1) var<storage, read> cells: array<u32>;
