@@ -68,7 +68,8 @@ struct Measured {
     waited_ms: Option<f64>,
 }
 
-/// (scene, true for a selection query)
+/// (scene, true for a selection query); any other folder of the scenes
+/// with a `template.glb` follows them (a generated scene copied there).
 const SCENES: [(&str, bool); 9] = [
     ("zoo-bunny", false),
     ("remeshed-cow", false),
@@ -114,7 +115,7 @@ fn main() {
         gpu.as_ref().map_or("the CPU".into(), describe),
     );
     let mut summary = Vec::new();
-    for (name, select) in SCENES {
+    for (name, select) in scenes(&root) {
         if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
             continue;
         }
@@ -123,7 +124,7 @@ fn main() {
         let (best, waited_ms) = (0..runs)
             .map(|_| {
                 let waited = gpu.as_ref().map(|g| counters(g).2);
-                let report = run(name, select, &options, gpu.as_ref());
+                let report = run(&name, select, &options, gpu.as_ref());
                 let waited = gpu.as_ref().zip(waited).map(|(g, w)| counters(g).2 - w);
                 (report, waited)
             })
@@ -134,7 +135,7 @@ fn main() {
             let (s1, k1, _) = counters(gpu);
             ((s1 - s0) / runs, (k1 - k0) / runs)
         });
-        print_scene(name, &best);
+        print_scene(&name, &best);
         summary.push((
             name,
             Measured {
@@ -165,10 +166,36 @@ fn main() {
     }
 }
 
+/// The shared scenes in [`SCENES`]' order, then the other folders under
+/// `root` that hold a scene, a template and a truth, by name.
+fn scenes(root: &std::path::Path) -> Vec<(String, bool)> {
+    let mut others: Vec<String> = std::fs::read_dir(root)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok())
+                .filter(|e| {
+                    let dir = e.path();
+                    ["scene.glb", "template.glb", "truth.json"]
+                        .iter()
+                        .all(|f| dir.join(f).is_file())
+                })
+                .filter_map(|e| e.file_name().into_string().ok())
+                .filter(|name| SCENES.iter().all(|(known, _)| known != name))
+                .collect()
+        })
+        .unwrap_or_default();
+    others.sort();
+    SCENES
+        .iter()
+        .map(|&(name, select)| (name.to_string(), select))
+        .chain(others.into_iter().map(|name| (name, false)))
+        .collect()
+}
+
 /// One row per scene: candidate points, milliseconds per stage (the
 /// scene's preparation is voxelization, or the weld for curvature) and
 /// the heap's peak, the scene and its mesh included.
-fn stage_table(summary: &[(&str, Measured)], curvature: bool) {
+fn stage_table(summary: &[(String, Measured)], curvature: bool) {
     let (points, prepare) = if curvature {
         ("vertices", "weld")
     } else {
@@ -207,7 +234,7 @@ fn stage_table(summary: &[(&str, Measured)], curvature: bool) {
 
 /// Microseconds per candidate for each layer of each pass (the sample
 /// pass and the final one): how the cost grows with the radius.
-fn per_candidate_table(summary: &[(&str, Measured)]) {
+fn per_candidate_table(summary: &[(String, Measured)]) {
     let layers = summary
         .iter()
         .flat_map(|(_, m)| m.report.stages.iter().map(|s| s.layer))

@@ -11,7 +11,11 @@
 #                                     2 threads and all; logs in OUT
 #
 # FAST_REJECT_BENCH_RUNS (default 3) and GPU_CHECK_SCENES (names the bench
-# takes, default all) shorten a run. GPU_CHECK_BASE=COMMIT at pack time
+# takes, default all) shorten a run. GPU_CHECK_EXTRA="DIR ..." at pack time
+# copies more scene folders (scene.glb, template.glb, truth.json: a
+# generated building scene, where the GPU's work is largest) beside the
+# shared ones; both the comparison and the bench take them (a 3 000-part
+# building scene adds about 11 s per CPU search on 2 threads). GPU_CHECK_BASE=COMMIT at pack time
 # packs that commit's build too (built in a git worktree): run then
 # benches both on the GPU, alternating, for a before/after on one machine.
 # Seen working on an NVIDIA H100 (driver 580, its Vulkan ICD under
@@ -51,6 +55,12 @@ for line in sys.stdin:
     git worktree remove --force "$base"
   fi
   rm -rf "$dir/scenes" && cp -r "$shared/scenes" "$dir/scenes"
+  for extra in ${GPU_CHECK_EXTRA:-}; do
+    for f in scene.glb template.glb truth.json; do
+      [[ -f $extra/$f ]] || { echo "$extra has no $f" >&2; exit 2; }
+    done
+    cp -r "$extra" "$dir/scenes/$(basename "$extra")"
+  done
   cp scripts/gpu-check.sh scripts/gpu-compare.py "$dir/"
   # The Vulkan loader (a machine with only the driver lacks it).
   lists=$(mktemp -d)
