@@ -20,8 +20,8 @@ use crate::voxel::{AtomicGrid, Grid, GridSpec, dilate};
 /// part gets larger cells, which keep more candidates, never fewer.
 const MAX_CELLS: f64 = (1u64 << 27) as f64;
 
-/// Triangles a thread marks at a time.
-const MARK_GRAIN: usize = 4096;
+/// Vertices a thread marks at a time.
+const MARK_GRAIN: usize = 8192;
 
 /// Which points of a part lie within reach of one of its vertices.
 pub(super) struct NearVertices {
@@ -29,12 +29,13 @@ pub(super) struct NearVertices {
 }
 
 impl NearVertices {
-    /// Cells of side `reach` over `bounds` (a part's box), each set where a
-    /// corner of `triangles` of `mesh` lies in it or in a neighbour: every
-    /// point within `reach` of a vertex is in a set cell.
+    /// Cells of side `reach` over `bounds` (a part's box), each set where
+    /// one of `vertices` of `mesh` lies in it or in a neighbour: every
+    /// point within `reach` of a vertex is in a set cell. Each vertex once,
+    /// not each triangle's corners: a closed mesh has six corners a vertex.
     pub(super) fn new(
         mesh: &TriMesh,
-        triangles: &[u32],
+        vertices: &[u32],
         bounds: Aabb,
         reach: f64,
         backend: Backend,
@@ -52,17 +53,15 @@ impl NearVertices {
             return None;
         }
         let spec = GridSpec::around(bounds, cell).ok()?;
-        // Marked from all threads: a part may have a million corners.
+        // Marked from all threads: a part may have a million vertices.
         let marked = AtomicGrid::new(spec);
-        backend.for_each_range(triangles.len(), MARK_GRAIN, |range| {
-            for &t in &triangles[range] {
-                for p in mesh.corners(t as usize) {
-                    let [x, y, z] = spec.voxel_of(p);
-                    if x >= 0 && y >= 0 && z >= 0 {
-                        let [x, y, z] = [x, y, z].map(|c| c as usize);
-                        if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
-                            marked.set(x, y, z);
-                        }
+        backend.for_each_range(vertices.len(), MARK_GRAIN, |range| {
+            for &v in &vertices[range] {
+                let [x, y, z] = spec.voxel_of(mesh.vertex(v));
+                if x >= 0 && y >= 0 && z >= 0 {
+                    let [x, y, z] = [x, y, z].map(|c| c as usize);
+                    if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
+                        marked.set(x, y, z);
                     }
                 }
             }
@@ -137,8 +136,8 @@ mod tests {
     fn the_inside_of_a_large_face_is_far_from_every_vertex() {
         // A slab of two triangles a face: vertices only at its corners.
         let slab = cuboid(Vec3::new(-10.0, -10.0, -0.2), Vec3::ZERO);
-        let triangles: Vec<u32> = (0..slab.triangles().len() as u32).collect();
-        let near = NearVertices::new(&slab, &triangles, slab.bounds(), 0.5, Backend::Serial)
+        let vertices: Vec<u32> = (0..slab.positions().len() as u32).collect();
+        let near = NearVertices::new(&slab, &vertices, slab.bounds(), 0.5, Backend::Serial)
             .expect("cells");
         // Within reach of a corner: near. The middle of the top face, and
         // anywhere beyond a few cells of every corner: not.

@@ -375,7 +375,7 @@ impl PartSearch<'_> {
         let mesh = scene.mesh();
         let near = NearVertices::new(
             mesh,
-            part.triangles(),
+            part.vertices(),
             part.bounds(),
             self.vertex_reach,
             backend,
