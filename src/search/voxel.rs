@@ -143,7 +143,9 @@ pub(super) async fn search_voxels(
     let template_ms = now_ms() - t0;
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
+    let copies_from = now_ms();
     let copies = congruent_parts(mesh, &lists);
+    let copies_ms = now_ms() - copies_from;
     let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
     let observer = RefCell::new(observer);
     let searched = searcher
@@ -180,6 +182,9 @@ pub(super) async fn search_voxels(
         gpu: gpu_info(gpu, found.gpu_fallback),
         timings: Timings {
             template: template_ms,
+            // Finding which parts copy others is part of matching: their
+            // instances come from it.
+            match_: found.timings.match_ + copies_ms,
             ..found.timings
         },
     })
