@@ -268,8 +268,8 @@ fn run(name: &str, select: bool, options: &MatchOptions, gpu: Option<&Gpu>) -> M
     )
     .unwrap();
     let source = common::template(name, select);
-    let load_ms = start.elapsed().as_secs_f64() * 1e3;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).unwrap();
+    let load_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut report = search_on(&scene, &source, options, gpu);
     report.timings.load = load_ms;
     report

@@ -53,7 +53,8 @@ pub struct GridInfo {
 /// written to JSON beside the stages.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Timings {
-    /// Reading and parsing the files (filled in by whoever loaded them).
+    /// Reading and parsing the files and splitting the scene into its
+    /// parts (`Scene::new`; filled in by whoever loaded them).
     pub load: f64,
     /// Voxelizing the scene (voxel descriptors).
     pub voxelize: f64,

@@ -143,9 +143,9 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
             (None, Some(s)) => parse_select(s)?,
             (None, None) => unreachable!("clap requires one of them"),
         };
-        let load = start.elapsed().as_secs_f64() * 1e3;
         let scene = Scene::new(scene_mesh, &scene_options)
             .map_err(|e| format!("scene '{}': {}", args.scene.display(), described(&e)))?;
+        let load = start.elapsed().as_secs_f64() * 1e3;
         let mut report = match &gpu {
             Some(gpu) => search_on_gpu(&scene, &source, &options, &mut (), gpu),
             None => search(&scene, &source, &options, &mut ()),
@@ -180,8 +180,8 @@ fn run_demo(json: bool) -> Result<(), String> {
         fast_reject::mesh::io::load(DEMO_SCENE, Some(Format::Gltf)).map_err(|e| e.to_string())?;
     let template = fast_reject::mesh::io::load(DEMO_TEMPLATE, Some(Format::Gltf))
         .map_err(|e| e.to_string())?;
-    let load = start.elapsed().as_secs_f64() * 1e3;
     let scene = Scene::new(scene_mesh, &SceneOptions::DEFAULT).map_err(|e| e.to_string())?;
+    let load = start.elapsed().as_secs_f64() * 1e3;
     let mut report = search(
         &scene,
         &TemplateSource::Model(template),
