@@ -15,7 +15,9 @@
 # copies more scene folders (scene.glb, template.glb, truth.json: a
 # generated building scene, where the GPU's work is largest) beside the
 # shared ones; both the comparison and the bench take them (a 3 000-part
-# building scene adds about 11 s per CPU search on 2 threads). GPU_CHECK_BASE=COMMIT at pack time
+# building scene adds about 11 s per CPU search on 2 threads). Mind a
+# device tool's carry limit (64 MiB): the shared scenes and one build
+# take 50 MB, a second build 13 MB more, that building scene 15 MB. GPU_CHECK_BASE=COMMIT at pack time
 # packs that commit's build too (built in a git worktree): run then
 # benches both on the GPU, alternating, for a before/after on one machine.
 # Seen working on an NVIDIA H100 (driver 580, its Vulkan ICD under
