@@ -145,8 +145,6 @@ pub enum Parts {
 #[derive(Clone, Debug)]
 pub struct ScenePart {
     triangles: Vec<u32>,
-    /// The mesh's vertices its triangles use, each once.
-    vertices: Vec<u32>,
     radius: f64,
     bounds: Aabb,
 }
@@ -160,16 +158,14 @@ impl ScenePart {
             for v in mesh.triangles()[t as usize] {
                 if taken[v as usize] != id {
                     taken[v as usize] = id;
-                    vertices.push(v);
+                    vertices.push(mesh.vertex(v));
                 }
             }
         }
-        let points: Vec<Vec3> = vertices.iter().map(|&v| mesh.vertex(v)).collect();
         ScenePart {
-            radius: minimal_bounding_sphere(&points).map_or(0.0, |s| s.radius),
-            bounds: Aabb::around(points).expect("a part has vertices"),
+            radius: minimal_bounding_sphere(&vertices).map_or(0.0, |s| s.radius),
+            bounds: Aabb::around(vertices).expect("a part has vertices"),
             triangles,
-            vertices,
         }
     }
 
@@ -181,12 +177,6 @@ impl ScenePart {
     /// Its triangles in the scene's mesh.
     pub fn triangles(&self) -> &[u32] {
         &self.triangles
-    }
-
-    /// The vertices of the scene's mesh its triangles use, each once: a
-    /// sixth of their corners on a closed mesh.
-    pub fn vertices(&self) -> &[u32] {
-        &self.vertices
     }
 
     /// Its bounding box.

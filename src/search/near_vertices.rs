@@ -20,8 +20,8 @@ use crate::voxel::{AtomicGrid, Grid, GridSpec, dilate};
 /// part gets larger cells, which keep more candidates, never fewer.
 const MAX_CELLS: f64 = (1u64 << 27) as f64;
 
-/// Vertices a thread marks at a time.
-const MARK_GRAIN: usize = 8192;
+/// Triangles a thread marks at a time.
+const MARK_GRAIN: usize = 4096;
 
 /// Which points of a part lie within reach of one of its vertices.
 pub(super) struct NearVertices {
@@ -29,13 +29,12 @@ pub(super) struct NearVertices {
 }
 
 impl NearVertices {
-    /// Cells of side `reach` over `bounds` (a part's box), each set where
-    /// one of `vertices` of `mesh` lies in it or in a neighbour: every
-    /// point within `reach` of a vertex is in a set cell. Each vertex once,
-    /// not each triangle's corners: a closed mesh has six corners a vertex.
+    /// Cells of side `reach` over `bounds` (a part's box), each set where a
+    /// corner of `triangles` of `mesh` lies in it or in a neighbour: every
+    /// point within `reach` of a vertex is in a set cell.
     pub(super) fn new(
         mesh: &TriMesh,
-        vertices: &[u32],
+        triangles: &[u32],
         bounds: Aabb,
         reach: f64,
         backend: Backend,
@@ -53,15 +52,17 @@ impl NearVertices {
             return None;
         }
         let spec = GridSpec::around(bounds, cell).ok()?;
-        // Marked from all threads: a part may have a million vertices.
+        // Marked from all threads: a part may have a million corners.
         let marked = AtomicGrid::new(spec);
-        backend.for_each_range(vertices.len(), MARK_GRAIN, |range| {
-            for &v in &vertices[range] {
-                let [x, y, z] = spec.voxel_of(mesh.vertex(v));
-                if x >= 0 && y >= 0 && z >= 0 {
-                    let [x, y, z] = [x, y, z].map(|c| c as usize);
-                    if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
-                        marked.set(x, y, z);
+        backend.for_each_range(triangles.len(), MARK_GRAIN, |range| {
+            for &t in &triangles[range] {
+                for p in mesh.corners(t as usize) {
+                    let [x, y, z] = spec.voxel_of(p);
+                    if x >= 0 && y >= 0 && z >= 0 {
+                        let [x, y, z] = [x, y, z].map(|c| c as usize);
+                        if x < spec.dims[0] && y < spec.dims[1] && z < spec.dims[2] {
+                            marked.set(x, y, z);
+                        }
                     }
                 }
             }
@@ -136,8 +137,8 @@ mod tests {
     fn the_inside_of_a_large_face_is_far_from_every_vertex() {
         // A slab of two triangles a face: vertices only at its corners.
         let slab = cuboid(Vec3::new(-10.0, -10.0, -0.2), Vec3::ZERO);
-        let vertices: Vec<u32> = (0..slab.positions().len() as u32).collect();
-        let near = NearVertices::new(&slab, &vertices, slab.bounds(), 0.5, Backend::Serial)
+        let triangles: Vec<u32> = (0..slab.triangles().len() as u32).collect();
+        let near = NearVertices::new(&slab, &triangles, slab.bounds(), 0.5, Backend::Serial)
             .expect("cells");
         // Within reach of a corner: near. The middle of the top face, and
         // anywhere beyond a few cells of every corner: not.

@@ -380,7 +380,7 @@ impl PartSearch<'_> {
         let mesh = scene.mesh();
         let near = NearVertices::new(
             mesh,
-            part.vertices(),
+            part.triangles(),
             part.bounds(),
             self.vertex_reach,
             backend,
