@@ -69,7 +69,8 @@ struct Measured {
 }
 
 /// (scene, true for a selection query); any other folder of the scenes
-/// with a `template.glb` follows them (a generated scene copied there).
+/// with a `scene.glb`, a `template.glb` and a `truth.json` follows them
+/// (a generated scene copied there).
 const SCENES: [(&str, bool); 9] = [
     ("zoo-bunny", false),
     ("remeshed-cow", false),
