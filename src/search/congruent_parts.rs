@@ -10,10 +10,12 @@
 //! the same shape meshed differently is searched on its own, as before.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::align::Rigid;
+use crate::exec::Backend;
 use crate::math::Vec3;
-use crate::mesh::TriMesh;
+use crate::mesh::{FxHasher, TriMesh};
 use glam::DMat3;
 
 /// Vertices may differ by this share of the part's radius, plus the
@@ -33,13 +35,13 @@ struct Local {
 }
 
 impl Local {
-    fn new(mesh: &TriMesh, triangles: &[u32], index: &mut LocalIndex) -> (Local, Vec<u32>) {
-        index.begin();
+    fn new(mesh: &TriMesh, triangles: &[u32]) -> (Local, Vec<u32>) {
+        let mut numbering = Numbering::for_part(mesh, triangles);
         let mut vertices = Vec::new();
         let mut pattern = Vec::with_capacity(3 * triangles.len());
         for &t in triangles {
             for v in mesh.triangles()[t as usize] {
-                let local = index.local(v, vertices.len() as u32);
+                let local = numbering.local(v, vertices.len() as u32);
                 if local as usize == vertices.len() {
                     vertices.push(mesh.vertex(v));
                 }
@@ -95,6 +97,19 @@ impl Local {
         DMat3::from_cols(x, z.cross(x), z)
     }
 
+    /// Whether `other`'s spread is close enough to this one's for it to
+    /// be a rigid copy: a test that needs no vertex.
+    fn spread_close(&self, other: &Local) -> bool {
+        (self.spread - other.spread).abs() <= self.tolerance(other)
+    }
+
+    /// How far a vertex may land from its copy: a share of the part's
+    /// radius plus the rounding of f32 coordinates, far below a voxel.
+    fn tolerance(&self, other: &Local) -> f64 {
+        TOLERANCE * self.spread.max(other.spread)
+            + 4.0 * f64::from(f32::EPSILON) * self.magnitude.max(other.magnitude)
+    }
+
     /// The rigid motion taking `self` onto `other` vertex by vertex, if
     /// every vertex lands within the tolerance.
     fn motion_to(&self, other: &Local, pair: (usize, usize)) -> Option<Rigid> {
@@ -103,8 +118,7 @@ impl Local {
             rotation,
             translation: other.centroid - rotation * self.centroid,
         };
-        let tolerance = TOLERANCE * self.spread.max(other.spread)
-            + 4.0 * f64::from(f32::EPSILON) * self.magnitude.max(other.magnitude);
+        let tolerance = self.tolerance(other);
         self.vertices
             .iter()
             .zip(&other.vertices)
@@ -113,43 +127,44 @@ impl Local {
     }
 }
 
-/// Each vertex of the mesh's local index in one part at a time, by array
-/// rather than hash map: a hash map made finding copies take longer than
-/// searching (90 ms of crowd-rocker's 950 000 triangles, against a 32 ms
-/// match stage). A stamp per vertex says whether its index is the
-/// current part's, so nothing is cleared between parts.
-struct LocalIndex {
-    stamp: Vec<u32>,
-    local: Vec<u32>,
-    current: u32,
+/// Each vertex of one part's local index. A part's vertices mostly lie
+/// together in the mesh's list (an exporter writes a part at a time), so
+/// an array over their span serves, sized by the part rather than the
+/// mesh, which lets parts be numbered on several threads at once; a part
+/// whose vertices are strewn through the list takes a hash map.
+enum Numbering {
+    Span { first: u32, local: Vec<u32> },
+    Strewn(HashMap<u32, u32, BuildHasherDefault<FxHasher>>),
 }
 
-impl LocalIndex {
-    fn new(vertices: usize) -> LocalIndex {
-        LocalIndex {
-            stamp: vec![0; vertices],
-            local: vec![0; vertices],
-            current: 0,
+impl Numbering {
+    fn for_part(mesh: &TriMesh, triangles: &[u32]) -> Numbering {
+        let (first, last) = triangles
+            .iter()
+            .flat_map(|&t| mesh.triangles()[t as usize])
+            .fold((u32::MAX, 0), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        let span = (last as usize + 1).saturating_sub(first as usize);
+        match span <= 4 * 3 * triangles.len() {
+            true => Numbering::Span {
+                first,
+                local: vec![u32::MAX; span],
+            },
+            false => Numbering::Strewn(HashMap::default()),
         }
     }
 
-    /// Starts a part: every vertex unnumbered.
-    fn begin(&mut self) {
-        self.current = self.current.wrapping_add(1);
-        if self.current == 0 {
-            self.stamp.fill(0);
-            self.current = 1;
-        }
-    }
-
-    /// `v`'s index in the current part, `next` if it has none yet.
+    /// `v`'s local index, `next` if it has none yet.
     fn local(&mut self, v: u32, next: u32) -> u32 {
-        let v = v as usize;
-        if self.stamp[v] != self.current {
-            self.stamp[v] = self.current;
-            self.local[v] = next;
+        match self {
+            Numbering::Span { first, local } => {
+                let slot = &mut local[(v - *first) as usize];
+                if *slot == u32::MAX {
+                    *slot = next;
+                }
+                *slot
+            }
+            Numbering::Strewn(map) => *map.entry(v).or_insert(next),
         }
-        self.local[v]
     }
 }
 
@@ -157,63 +172,92 @@ impl LocalIndex {
 /// equal, and lists that meet are compared in full, so a fast mix serves
 /// where SipHash's resistance to chosen keys buys nothing.
 fn pattern_hash(pattern: &[u32]) -> u64 {
-    pattern.iter().fold(pattern.len() as u64, |h, &i| {
-        (h.rotate_left(5) ^ u64::from(i)).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-    })
+    let mut hasher = FxHasher::default();
+    hasher.write_usize(pattern.len());
+    for &i in pattern {
+        hasher.write_u32(i);
+    }
+    hasher.finish()
 }
 
-/// A searched part that later ones may copy, in brief: its vertices are
-/// read again only for a part that may be its copy, so that a scene of
-/// distinct parts does not hold a second copy of its mesh.
+/// A searched part that later ones may copy, kept whole while a later
+/// part has as many triangles: reading it again for each copy took a
+/// third of the step on crowd-rocker.
 struct Original {
     part: usize,
-    spread: f64,
-    magnitude: f64,
+    local: Local,
+    pattern: Vec<u32>,
     /// The two vertices that make its frame.
     pair: (usize, usize),
 }
 
+/// Parts numbered at once, at most: a bound on the memory the step holds
+/// beside the kept originals, and enough to keep the threads busy.
+const BATCH_TRIANGLES: usize = 1 << 18;
+
 /// For each of `parts` (triangle lists of `mesh`), `None` where it is
 /// searched, or the earlier part it copies and the motion from that part
-/// to it. Only parts that are searched are copied from.
-pub(super) fn congruent_parts(mesh: &TriMesh, parts: &[&[u32]]) -> Vec<Option<(usize, Rigid)>> {
-    let mut index = LocalIndex::new(mesh.positions().len());
+/// to it. Only parts that are searched are copied from. Parts are numbered
+/// with `backend`, and the same copies are found with either.
+pub(super) fn congruent_parts(
+    mesh: &TriMesh,
+    parts: &[&[u32]],
+    backend: Backend,
+) -> Vec<Option<(usize, Rigid)>> {
+    let mut copies = vec![None; parts.len()];
+    // A copy has as many triangles as its original: a part alone in its
+    // count is neither, and is not numbered at all.
+    let mut last_of_count: HashMap<usize, (usize, usize)> = HashMap::new();
+    for (i, triangles) in parts.iter().enumerate() {
+        let entry = last_of_count.entry(triangles.len()).or_insert((0, i));
+        *entry = (entry.0 + 1, i);
+    }
+    let shared: Vec<usize> = (0..parts.len())
+        .filter(|&i| last_of_count[&parts[i].len()].0 > 1)
+        .collect();
     // Searched parts by their triangles in local indices (a hash of them:
     // equal lists are checked when the hashes meet).
     let mut originals: HashMap<(usize, usize, u64), Vec<Original>> = HashMap::new();
-    parts
-        .iter()
-        .enumerate()
-        .map(|(i, triangles)| {
-            let (local, pattern) = Local::new(mesh, triangles, &mut index);
-            let key = (pattern.len(), local.vertices.len(), pattern_hash(&pattern));
+    let mut rest = shared.as_slice();
+    while !rest.is_empty() {
+        let mut taken = 0;
+        let mut triangles = 0;
+        while taken < rest.len() && (taken == 0 || triangles < BATCH_TRIANGLES) {
+            triangles += parts[rest[taken]].len();
+            taken += 1;
+        }
+        let (batch, later) = rest.split_at(taken);
+        rest = later;
+        let numbered = backend.map_each(batch.len(), |k| Local::new(mesh, parts[batch[k]]));
+        for (&i, (local, pattern)) in batch.iter().zip(numbered) {
+            let length = pattern.len();
+            let key = (length, local.vertices.len(), pattern_hash(&pattern));
             let same_pattern = originals.entry(key).or_default();
-            let copied = same_pattern.iter().find_map(|original| {
-                let close = (original.spread - local.spread).abs()
-                    <= TOLERANCE * original.spread.max(local.spread)
-                        + 4.0 * f64::from(f32::EPSILON) * original.magnitude.max(local.magnitude);
-                if !close {
-                    return None;
-                }
-                let (there, their_pattern) = Local::new(mesh, parts[original.part], &mut index);
-                (their_pattern == pattern)
-                    .then(|| there.motion_to(&local, original.pair))
+            copies[i] = same_pattern.iter().find_map(|original| {
+                (original.local.spread_close(&local) && original.pattern == pattern)
+                    .then(|| original.local.motion_to(&local, original.pair))
                     .flatten()
                     .map(|m| (original.part, m))
             });
-            if copied.is_none()
+            let (_, last) = last_of_count[&parts[i].len()];
+            if copies[i].is_none()
+                && last > i
                 && let Some(pair) = local.frame_vertices()
             {
                 same_pattern.push(Original {
                     part: i,
-                    spread: local.spread,
-                    magnitude: local.magnitude,
+                    local,
+                    pattern,
                     pair,
                 });
             }
-            copied
-        })
-        .collect()
+            if last == i {
+                // No later part can copy one of this many triangles.
+                originals.retain(|&(other, ..), _| other != length);
+            }
+        }
+    }
+    copies
 }
 
 #[cfg(test)]
@@ -255,7 +299,7 @@ mod tests {
             ])
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
-        let copies = congruent_parts(&scene, &lists);
+        let copies = congruent_parts(&scene, &lists, Backend::Serial);
         let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|(j, _)| j)).collect();
         assert_eq!(originals, [None, Some(0), None, None, None, Some(0)]);
         // The motion takes the first ring onto the second.
@@ -265,5 +309,68 @@ mod tests {
             let q = turn * p + Vec3::new(5.0, -3.0, 2.0);
             assert!(motion.apply(p).distance(q) < 1e-5, "{p:?}");
         }
+    }
+
+    /// The same scene with its vertices strewn through the list (a part's
+    /// vertices far apart, so numbered through a hash map) finds the same
+    /// copies, on one thread or several.
+    #[test]
+    fn strewn_vertices_and_threads_find_the_same_copies() {
+        let ring = torus(Vec3::ZERO, 1.0, 0.3, 16, 8);
+        let turn = DQuat::from_axis_angle(Vec3::new(0.3, -1.0, 0.2).normalize(), 0.7);
+        let mut scene = ring.clone();
+        for k in 1..6 {
+            scene.append(&placed(&ring, turn, Vec3::splat(4.0 * k as f64)));
+        }
+        // A different shape of as many triangles between the copies.
+        scene.append(&ring.map_positions(|p| p * 1.5).unwrap());
+        // A large part alone in its count, whose vertices the rings' spread
+        // among.
+        let filler = torus(Vec3::splat(-9.0), 3.0, 1.0, 160, 80);
+        scene.append(&filler);
+        let n = ring.triangles().len() as u32;
+        let parts: Vec<Vec<u32>> = (0..7)
+            .map(|k| (k * n..(k + 1) * n).collect())
+            .chain([(7 * n..7 * n + filler.triangles().len() as u32).collect()])
+            .collect();
+        let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
+        // Vertex v moves to v * step mod count: neighbours land far apart.
+        let count = scene.positions().len();
+        let step = (count / 2 + 1..).find(|s| gcd(*s, count) == 1).unwrap();
+        let moved = |v: u32| ((v as usize * step) % count) as u32;
+        let mut positions = vec![[0.0; 3]; count];
+        for (v, p) in scene.positions().iter().enumerate() {
+            positions[moved(v as u32) as usize] = *p;
+        }
+        let triangles = scene.triangles().iter().map(|t| t.map(moved)).collect();
+        let strewn = TriMesh::new(positions, triangles).unwrap();
+        assert!(matches!(
+            Numbering::for_part(&strewn, lists[0]),
+            Numbering::Strewn(_)
+        ));
+        let originals = |mesh: &TriMesh, backend| -> Vec<Option<usize>> {
+            congruent_parts(mesh, &lists, backend)
+                .iter()
+                .map(|c| c.map(|(j, _)| j))
+                .collect()
+        };
+        let expected = [
+            None,
+            Some(0),
+            Some(0),
+            Some(0),
+            Some(0),
+            Some(0),
+            None,
+            None,
+        ];
+        assert_eq!(originals(&scene, Backend::Serial), expected);
+        assert_eq!(originals(&scene, Backend::Parallel), expected);
+        assert_eq!(originals(&strewn, Backend::Serial), expected);
+        assert_eq!(originals(&strewn, Backend::Parallel), expected);
+    }
+
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 { a } else { gcd(b, a % b) }
     }
 }

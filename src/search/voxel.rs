@@ -144,7 +144,7 @@ pub(super) async fn search_voxels(
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
     let copies_from = now_ms();
-    let copies = congruent_parts(mesh, &lists);
+    let copies = congruent_parts(mesh, &lists, options.backend);
     let copies_ms = now_ms() - copies_from;
     let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
     let observer = RefCell::new(observer);
