@@ -9,6 +9,7 @@
 
 use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::error::MemoryEstimate;
+use crate::exec::Backend;
 use crate::mesh::TriMesh;
 use crate::verify::moment_level;
 use crate::voxel::{GridSpec, MAX_LEVEL, level_for_radius};
@@ -63,15 +64,20 @@ pub(crate) fn voxel_bytes(spec: &GridSpec) -> u64 {
 /// It bounds the surface pass (a triangle is swept along its dominant axis,
 /// one column per face) and the fill's column crossings, and it is known in
 /// O(triangles) before anything is built.
-pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64) -> f64 {
-    let area: f64 = (0..mesh.triangles().len())
-        .map(|t| {
-            let [a, b, c] = mesh.corners(t);
-            let n = (b - a).cross(c - a);
-            (n.x.abs() + n.y.abs() + n.z.abs()) / 2.0
-        })
-        .sum();
-    area / (voxel_size * voxel_size)
+pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64, backend: Backend) -> f64 {
+    // Summed in fixed chunks, so that every backend adds in one order.
+    const CHUNK: usize = 1 << 14;
+    let triangles = mesh.triangles().len();
+    let chunks = backend.map_each(triangles.div_ceil(CHUNK), |c| {
+        (c * CHUNK..((c + 1) * CHUNK).min(triangles))
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t);
+                let n = (b - a).cross(c - a);
+                (n.x.abs() + n.y.abs() + n.z.abs()) / 2.0
+            })
+            .sum::<f64>()
+    });
+    chunks.iter().sum::<f64>() / (voxel_size * voxel_size)
 }
 
 /// Bytes of the cascade's state for `candidates` points.
@@ -146,7 +152,7 @@ mod tests {
             vec![[0, 1, 2], [0, 2, 3]],
         )
         .unwrap();
-        assert!((voxel_work(&flat, 0.1) - 100.0).abs() < 1e-9);
+        assert!((voxel_work(&flat, 0.1, Backend::Serial) - 100.0).abs() < 1e-9);
         let h = std::f32::consts::FRAC_1_SQRT_2;
         let tilted = TriMesh::new(
             vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, h, h], [0.0, h, h]],
@@ -154,7 +160,19 @@ mod tests {
         )
         .unwrap();
         let expected = 2.0 * f64::from(h) * 100.0;
-        assert!((voxel_work(&tilted, 0.1) - expected).abs() < 1e-4);
+        assert!((voxel_work(&tilted, 0.1, Backend::Serial) - expected).abs() < 1e-4);
+    }
+
+    #[test]
+    fn voxel_work_adds_alike_on_every_backend() {
+        // Several chunks' worth of triangles: a sphere's projections on
+        // the three planes are three discs, each covered twice.
+        let sphere = crate::mesh::shapes::uv_sphere(crate::math::Vec3::ZERO, 1.0, 180, 240);
+        assert!(sphere.triangles().len() > 4 << 14);
+        let serial = voxel_work(&sphere, 0.1, Backend::Serial);
+        assert_eq!(serial, voxel_work(&sphere, 0.1, Backend::Parallel));
+        let discs = 3.0 * 2.0 * std::f64::consts::PI * 100.0;
+        assert!((serial - discs).abs() < 0.01 * discs, "{serial} {discs}");
     }
 
     #[test]

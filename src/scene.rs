@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Aabb;
 use crate::math::Vec3;
-use crate::mesh::{TriMesh, connected_components, minimal_bounding_sphere};
+use crate::mesh::{TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere};
 use crate::voxel::{Grid, GridSpec, PADDING, Solid, WindowedMesh, dilate, skin, voxelize};
 use std::sync::OnceLock;
 
@@ -150,23 +150,37 @@ pub struct ScenePart {
 }
 
 impl ScenePart {
-    /// The part of `mesh` made of `triangles`; `taken` marks the vertices
-    /// already counted for part `id`, so each counts once.
-    fn new(mesh: &TriMesh, triangles: Vec<u32>, id: u32, taken: &mut [u32]) -> ScenePart {
+    /// The parts of `mesh` made of each of `lists`, their spheres and boxes
+    /// found on `backend`'s threads.
+    fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Backend) -> Vec<ScenePart> {
+        let shapes = backend.map_each(lists.len(), |k| ScenePart::shape(mesh, &lists[k]));
+        lists
+            .into_iter()
+            .zip(shapes)
+            .map(|(triangles, (radius, bounds))| ScenePart {
+                triangles,
+                radius,
+                bounds,
+            })
+            .collect()
+    }
+
+    /// The minimal bounding sphere's radius and the box of `triangles`'
+    /// vertices, each read once.
+    fn shape(mesh: &TriMesh, triangles: &[u32]) -> (f64, Aabb) {
+        let mut numbering = VertexNumbering::for_part(mesh, triangles);
         let mut vertices = Vec::new();
-        for &t in &triangles {
+        for &t in triangles {
             for v in mesh.triangles()[t as usize] {
-                if taken[v as usize] != id {
-                    taken[v as usize] = id;
+                if numbering.local(v, vertices.len() as u32) as usize == vertices.len() {
                     vertices.push(mesh.vertex(v));
                 }
             }
         }
-        ScenePart {
-            radius: minimal_bounding_sphere(&vertices).map_or(0.0, |s| s.radius),
-            bounds: Aabb::around(vertices).expect("a part has vertices"),
-            triangles,
-        }
+        (
+            minimal_bounding_sphere(&vertices).map_or(0.0, |s| s.radius),
+            Aabb::around(vertices).expect("a part has vertices"),
+        )
     }
 
     /// The radius of the part's minimal bounding sphere.
@@ -271,6 +285,7 @@ impl Scene {
             spec.voxel_size,
             options.resolution,
             options.max_voxel_work,
+            options.backend,
         )?;
         let parts = split_parts(&mesh, options.backend);
         let budget = options.memory_budget;
@@ -335,7 +350,7 @@ impl Scene {
             Parts::Components => &self.parts,
             Parts::OverlappingBoxes => self
                 .joined_parts
-                .get_or_init(|| join_overlapping(&self.mesh, &self.parts)),
+                .get_or_init(|| join_overlapping(&self.mesh, &self.parts, self.backend)),
         }
     }
 
@@ -543,17 +558,12 @@ impl Scene {
 
 /// The connected parts of `mesh` with their bounds and bounding spheres.
 fn split_parts(mesh: &TriMesh, backend: Backend) -> Vec<ScenePart> {
-    let mut taken = vec![u32::MAX; mesh.positions().len()];
-    connected_components(mesh, backend)
-        .into_iter()
-        .enumerate()
-        .map(|(i, triangles)| ScenePart::new(mesh, triangles, i as u32, &mut taken))
-        .collect()
+    ScenePart::all(mesh, connected_components(mesh, backend), backend)
 }
 
 /// Joins the parts whose bounding boxes overlap, transitively (a sweep
 /// along x, then union-find).
-fn join_overlapping(mesh: &TriMesh, parts: &[ScenePart]) -> Vec<ScenePart> {
+fn join_overlapping(mesh: &TriMesh, parts: &[ScenePart], backend: Backend) -> Vec<ScenePart> {
     let mut group: Vec<usize> = (0..parts.len()).collect();
     fn root(group: &mut [usize], mut i: usize) -> usize {
         while group[i] != i {
@@ -584,16 +594,15 @@ fn join_overlapping(mesh: &TriMesh, parts: &[ScenePart]) -> Vec<ScenePart> {
         let r = root(&mut group, i);
         members[r].extend_from_slice(&parts[i].triangles);
     }
-    let mut taken = vec![u32::MAX; mesh.positions().len()];
-    members
+    let lists = members
         .into_iter()
         .filter(|m| !m.is_empty())
-        .enumerate()
-        .map(|(i, mut triangles)| {
+        .map(|mut triangles| {
             triangles.sort_unstable();
-            ScenePart::new(mesh, triangles, i as u32, &mut taken)
+            triangles
         })
-        .collect()
+        .collect();
+    ScenePart::all(mesh, lists, backend)
 }
 
 impl std::fmt::Debug for Scene {
@@ -616,8 +625,9 @@ pub(crate) fn check_voxel_work(
     voxel_size: f64,
     resolution: u32,
     limit: f64,
+    backend: Backend,
 ) -> Result<()> {
-    let work = voxel_work(mesh, voxel_size);
+    let work = voxel_work(mesh, voxel_size, backend);
     if work <= limit {
         return Ok(());
     }

@@ -13,11 +13,13 @@ mod closest_point;
 mod components;
 pub mod io;
 pub mod shapes;
+mod vertex_numbering;
 mod weld;
 
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
 pub use components::connected_components;
+pub(crate) use vertex_numbering::VertexNumbering;
 pub(crate) use weld::FxHasher;
 pub use weld::{weld_vertices, weld_vertices_on};
 

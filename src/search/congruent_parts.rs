@@ -10,12 +10,12 @@
 //! the same shape meshed differently is searched on its own, as before.
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::Hasher;
 
 use crate::align::Rigid;
 use crate::exec::Backend;
 use crate::math::Vec3;
-use crate::mesh::{FxHasher, TriMesh};
+use crate::mesh::{FxHasher, TriMesh, VertexNumbering};
 use glam::DMat3;
 
 /// Vertices may differ by this share of the part's radius, plus the
@@ -36,7 +36,7 @@ struct Local {
 
 impl Local {
     fn new(mesh: &TriMesh, triangles: &[u32]) -> (Local, Vec<u32>) {
-        let mut numbering = Numbering::for_part(mesh, triangles);
+        let mut numbering = VertexNumbering::for_part(mesh, triangles);
         let mut vertices = Vec::new();
         let mut pattern = Vec::with_capacity(3 * triangles.len());
         for &t in triangles {
@@ -124,47 +124,6 @@ impl Local {
             .zip(&other.vertices)
             .all(|(&p, &q)| motion.apply(p).distance(q) <= tolerance)
             .then_some(motion)
-    }
-}
-
-/// Each vertex of one part's local index. A part's vertices mostly lie
-/// together in the mesh's list (an exporter writes a part at a time), so
-/// an array over their span serves, sized by the part rather than the
-/// mesh, which lets parts be numbered on several threads at once; a part
-/// whose vertices are strewn through the list takes a hash map.
-enum Numbering {
-    Span { first: u32, local: Vec<u32> },
-    Strewn(HashMap<u32, u32, BuildHasherDefault<FxHasher>>),
-}
-
-impl Numbering {
-    fn for_part(mesh: &TriMesh, triangles: &[u32]) -> Numbering {
-        let (first, last) = triangles
-            .iter()
-            .flat_map(|&t| mesh.triangles()[t as usize])
-            .fold((u32::MAX, 0), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        let span = (last as usize + 1).saturating_sub(first as usize);
-        match span <= 4 * 3 * triangles.len() {
-            true => Numbering::Span {
-                first,
-                local: vec![u32::MAX; span],
-            },
-            false => Numbering::Strewn(HashMap::default()),
-        }
-    }
-
-    /// `v`'s local index, `next` if it has none yet.
-    fn local(&mut self, v: u32, next: u32) -> u32 {
-        match self {
-            Numbering::Span { first, local } => {
-                let slot = &mut local[(v - *first) as usize];
-                if *slot == u32::MAX {
-                    *slot = next;
-                }
-                *slot
-            }
-            Numbering::Strewn(map) => *map.entry(v).or_insert(next),
-        }
     }
 }
 
@@ -344,10 +303,7 @@ mod tests {
         }
         let triangles = scene.triangles().iter().map(|t| t.map(moved)).collect();
         let strewn = TriMesh::new(positions, triangles).unwrap();
-        assert!(matches!(
-            Numbering::for_part(&strewn, lists[0]),
-            Numbering::Strewn(_)
-        ));
+        assert!(VertexNumbering::for_part(&strewn, lists[0]).is_strewn());
         let originals = |mesh: &TriMesh, backend| -> Vec<Option<usize>> {
             congruent_parts(mesh, &lists, backend)
                 .iter()

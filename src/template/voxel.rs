@@ -113,6 +113,7 @@ impl VoxelTemplate {
                         voxel_size,
                         lattice.resolution,
                         scene.max_voxel_work(),
+                        scene.backend(),
                     )?;
                     let mut estimate = scene.mesh_estimate();
                     estimate
