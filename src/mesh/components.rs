@@ -5,35 +5,33 @@
 //! vertices along seams, so vertices at the same position are welded first;
 //! what is then joined by shared vertices is one component.
 
+use std::sync::atomic::AtomicU32;
+use std::sync::atomic::Ordering::Relaxed;
+
 use super::{TriMesh, weld_vertices_on};
 use crate::exec::Backend;
 
 /// The triangles of each connected component (joined through welded
 /// vertices), in order of their first triangle; triangles ascending. The
-/// weld uses `backend`'s threads.
+/// weld and the joining use `backend`'s threads.
 pub fn connected_components(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
     let (ids, welded) = weld_vertices_on(mesh.positions(), backend);
-    let mut parent: Vec<u32> = (0..welded as u32).collect();
-    fn root(parent: &mut [u32], mut v: u32) -> u32 {
-        while parent[v as usize] != v {
-            // Path halving keeps the trees flat.
-            let up = parent[parent[v as usize] as usize];
-            parent[v as usize] = up;
-            v = up;
+    let parent: Vec<AtomicU32> = (0..welded as u32).map(AtomicU32::new).collect();
+    let triangles = mesh.triangles();
+    backend.for_each_range(triangles.len(), 1 << 14, |range| {
+        for t in &triangles[range] {
+            let [a, b, c] = t.map(|i| ids[i as usize]);
+            join(&parent, a, b);
+            join(&parent, a, c);
         }
-        v
-    }
-    for t in mesh.triangles() {
-        let [a, b, c] = t.map(|i| root(&mut parent, ids[i as usize]));
-        let low = a.min(b).min(c);
-        for r in [a, b, c] {
-            parent[r as usize] = low;
-        }
-    }
+    });
+    let roots = backend.map(triangles.len(), |t| {
+        root(&parent, ids[triangles[t][0] as usize])
+    });
     let mut component_of_root = vec![u32::MAX; welded];
     let mut components: Vec<Vec<u32>> = Vec::new();
-    for (i, t) in mesh.triangles().iter().enumerate() {
-        let r = root(&mut parent, ids[t[0] as usize]) as usize;
+    for (i, &r) in roots.iter().enumerate() {
+        let r = r as usize;
         if component_of_root[r] == u32::MAX {
             component_of_root[r] = components.len() as u32;
             components.push(Vec::new());
@@ -41,6 +39,47 @@ pub fn connected_components(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
         components[component_of_root[r] as usize].push(i as u32);
     }
     components
+}
+
+// A union-find that threads share without a lock: a vertex's parent is
+// never above it (a root is linked under a lower one, and halving a path
+// points a vertex at its grandparent), so no cycle forms; a root changes
+// only by a compare-exchange that finds it still a root; and every value
+// a parent ever holds stays an ancestor, as trees only merge. So relaxed
+// loads and stores suffice, and the sets, whatever the threads'
+// interleaving, are the connected ones.
+
+/// The root of `v`'s tree, halving the path on the way.
+fn root(parent: &[AtomicU32], mut v: u32) -> u32 {
+    loop {
+        let up = parent[v as usize].load(Relaxed);
+        if up == v {
+            return v;
+        }
+        let above = parent[up as usize].load(Relaxed);
+        if above != up {
+            // `v` is no root, so no link writes it: a store is safe.
+            parent[v as usize].store(above, Relaxed);
+        }
+        v = above;
+    }
+}
+
+/// Joins the trees of `a` and `b`: the higher root goes under the lower.
+fn join(parent: &[AtomicU32], a: u32, b: u32) {
+    let (mut a, mut b) = (a, b);
+    loop {
+        (a, b) = (root(parent, a), root(parent, b));
+        if a == b {
+            return;
+        }
+        let (low, high) = (a.min(b), a.max(b));
+        match parent[high as usize].compare_exchange(high, low, Relaxed, Relaxed) {
+            Ok(_) => return,
+            // Another thread linked `high` first: look again.
+            Err(_) => (a, b) = (low, high),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -77,5 +116,59 @@ mod tests {
         let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE);
         mesh.append(&cuboid(Vec3::splat(0.5), Vec3::splat(1.5)));
         assert_eq!(connected_components(&mesh, Backend::Parallel).len(), 2);
+    }
+
+    /// Many threads joining at once find the sets one thread finds: random
+    /// triangles within groups of vertices, far more than one chunk, the
+    /// groups' triangles interleaved, against a plain union-find.
+    #[test]
+    fn threads_find_the_components_one_thread_finds() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % u64::from(n)) as u32
+        };
+        let (groups, per_group) = (300u32, 400u32);
+        let positions: Vec<[f32; 3]> = (0..groups * per_group)
+            .map(|v| [v as f32, (v % 7) as f32, (v % 13) as f32 * 0.5])
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..120_000)
+            .map(|_| {
+                let base = next(groups) * per_group;
+                [0; 3].map(|_| base + next(per_group))
+            })
+            .collect();
+        let mesh = TriMesh::new(positions, triangles).unwrap();
+        // Each vertex at its own position: vertex indices are the ids.
+        let mut parent: Vec<u32> = (0..groups * per_group).collect();
+        fn find(parent: &mut [u32], mut v: u32) -> u32 {
+            while parent[v as usize] != v {
+                v = parent[v as usize];
+            }
+            v
+        }
+        for t in mesh.triangles() {
+            for &other in &t[1..] {
+                let (a, b) = (find(&mut parent, t[0]), find(&mut parent, other));
+                parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+        let mut expected: Vec<Vec<u32>> = Vec::new();
+        let mut slot = std::collections::HashMap::new();
+        for (i, t) in mesh.triangles().iter().enumerate() {
+            let r = find(&mut parent, t[0]);
+            let k = *slot.entry(r).or_insert_with(|| {
+                expected.push(Vec::new());
+                expected.len() - 1
+            });
+            expected[k].push(i as u32);
+        }
+        assert!(expected.len() > groups as usize, "{}", expected.len());
+        assert_eq!(connected_components(&mesh, Backend::Serial), expected);
+        for _ in 0..3 {
+            assert_eq!(connected_components(&mesh, Backend::Parallel), expected);
+        }
     }
 }

@@ -10,12 +10,10 @@ use crate::exec::Backend;
 
 /// Maps every vertex to a dense id shared by all vertices at exactly the same
 /// position, numbered in order of first appearance; returns the ids and how
-/// many distinct positions there are. With threads, by sorting (the same
-/// ids as the hash map's).
+/// many distinct positions there are. By sorting, on `backend`'s threads:
+/// the same ids as [`weld_vertices`]'s hash map, and faster on a whole
+/// scene even on one thread (crowd-rocker's components 63-70 -> 27-28 ms).
 pub fn weld_vertices_on(positions: &[[f32; 3]], backend: Backend) -> (Vec<u32>, usize) {
-    if !backend.is_parallel() {
-        return weld_vertices(positions);
-    }
     let key = |p: [f32; 3]| p.map(|c| (c + 0.0).to_bits());
     let mut keyed: Vec<([u32; 3], u32)> =
         backend.map(positions.len(), |i| (key(positions[i]), i as u32));
