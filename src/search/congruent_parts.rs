@@ -22,6 +22,13 @@ use glam::DMat3;
 /// rounding of their f32 coordinates: far below a voxel.
 const TOLERANCE: f64 = 1e-4;
 
+/// How far a vertex may land from its copy's, for parts of `spread` whose
+/// coordinates reach `magnitude`: a share of the part's size plus the
+/// rounding of f32 coordinates, far below a voxel.
+fn tolerance(spread: f64, magnitude: f64) -> f64 {
+    TOLERANCE * spread + 4.0 * f64::from(f32::EPSILON) * magnitude
+}
+
 /// A part's vertices in the order its triangles first use them, and its
 /// triangles in those local indices.
 struct Local {
@@ -97,17 +104,17 @@ impl Local {
         DMat3::from_cols(x, z.cross(x), z)
     }
 
-    /// Whether `other`'s spread is close enough to this one's for it to
-    /// be a rigid copy: a test that needs no vertex.
-    fn spread_close(&self, other: &Local) -> bool {
-        (self.spread - other.spread).abs() <= self.tolerance(other)
+    /// Bytes its vertices take.
+    fn bytes(&self) -> usize {
+        std::mem::size_of::<Vec3>() * self.vertices.len()
     }
 
-    /// How far a vertex may land from its copy: a share of the part's
-    /// radius plus the rounding of f32 coordinates, far below a voxel.
+    /// How far a vertex may land from its copy's.
     fn tolerance(&self, other: &Local) -> f64 {
-        TOLERANCE * self.spread.max(other.spread)
-            + 4.0 * f64::from(f32::EPSILON) * self.magnitude.max(other.magnitude)
+        tolerance(
+            self.spread.max(other.spread),
+            self.magnitude.max(other.magnitude),
+        )
     }
 
     /// The rigid motion taking `self` onto `other` vertex by vertex, if
@@ -139,16 +146,41 @@ fn pattern_hash(pattern: &[u32]) -> u64 {
     hasher.finish()
 }
 
-/// A searched part that later ones may copy, kept whole while a later
-/// part has as many triangles: reading it again for each copy took a
-/// third of the step on crowd-rocker.
+/// A searched part that later ones may copy. Its numbering is kept while
+/// a later part has as many triangles (reading it again for each copy took
+/// a third of the step on crowd-rocker), up to [`KEPT_BYTES_PER_TRIANGLE`]; past that,
+/// it is read again when a part may be its copy.
 struct Original {
     part: usize,
-    local: Local,
-    pattern: Vec<u32>,
+    spread: f64,
+    magnitude: f64,
     /// The two vertices that make its frame.
     pair: (usize, usize),
+    kept: Option<(Local, Vec<u32>)>,
 }
+
+impl Original {
+    /// Bytes its kept numbering holds.
+    fn kept_bytes(&self) -> usize {
+        self.kept
+            .as_ref()
+            .map_or(0, |(local, pattern)| local.bytes() + 4 * pattern.len())
+    }
+
+    /// Whether `local` could be a rigid copy, from its spread alone.
+    fn spread_close(&self, local: &Local) -> bool {
+        (self.spread - local.spread).abs()
+            <= tolerance(
+                self.spread.max(local.spread),
+                self.magnitude.max(local.magnitude),
+            )
+    }
+}
+
+/// The originals' numberings kept at once, at most, per triangle of the
+/// mesh: as much again as the mesh's triangle list, so that a scene of
+/// many distinct parts does not hold a second copy of itself.
+const KEPT_BYTES_PER_TRIANGLE: usize = 12;
 
 /// Parts numbered at once, at most: a bound on the memory the step holds
 /// beside the kept originals, and enough to keep the threads busy.
@@ -162,6 +194,18 @@ pub(super) fn congruent_parts(
     mesh: &TriMesh,
     parts: &[&[u32]],
     backend: Backend,
+) -> Vec<Option<(usize, Rigid)>> {
+    let kept_limit = KEPT_BYTES_PER_TRIANGLE * mesh.triangles().len();
+    congruent_parts_keeping(mesh, parts, backend, kept_limit)
+}
+
+/// [`congruent_parts`], keeping originals' numberings of at most
+/// `kept_limit` bytes at once.
+fn congruent_parts_keeping(
+    mesh: &TriMesh,
+    parts: &[&[u32]],
+    backend: Backend,
+    kept_limit: usize,
 ) -> Vec<Option<(usize, Rigid)>> {
     let mut copies = vec![None; parts.len()];
     // A copy has as many triangles as its original: a part alone in its
@@ -177,6 +221,7 @@ pub(super) fn congruent_parts(
     // Searched parts by their triangles in local indices (a hash of them:
     // equal lists are checked when the hashes meet).
     let mut originals: HashMap<(usize, usize, u64), Vec<Original>> = HashMap::new();
+    let mut kept_bytes = 0;
     let mut rest = shared.as_slice();
     while !rest.is_empty() {
         let mut taken = 0;
@@ -193,8 +238,19 @@ pub(super) fn congruent_parts(
             let key = (length, local.vertices.len(), pattern_hash(&pattern));
             let same_pattern = originals.entry(key).or_default();
             copies[i] = same_pattern.iter().find_map(|original| {
-                (original.local.spread_close(&local) && original.pattern == pattern)
-                    .then(|| original.local.motion_to(&local, original.pair))
+                if !original.spread_close(&local) {
+                    return None;
+                }
+                let read_again;
+                let (there, their_pattern) = match &original.kept {
+                    Some((there, their_pattern)) => (there, their_pattern),
+                    None => {
+                        read_again = Local::new(mesh, parts[original.part]);
+                        (&read_again.0, &read_again.1)
+                    }
+                };
+                (*their_pattern == pattern)
+                    .then(|| there.motion_to(&local, original.pair))
                     .flatten()
                     .map(|m| (original.part, m))
             });
@@ -203,16 +259,27 @@ pub(super) fn congruent_parts(
                 && last > i
                 && let Some(pair) = local.frame_vertices()
             {
+                let bytes = local.bytes() + 4 * pattern.len();
+                let keep = kept_bytes + bytes <= kept_limit;
+                if keep {
+                    kept_bytes += bytes;
+                }
                 same_pattern.push(Original {
                     part: i,
-                    local,
-                    pattern,
+                    spread: local.spread,
+                    magnitude: local.magnitude,
                     pair,
+                    kept: keep.then_some((local, pattern)),
                 });
             }
             if last == i {
                 // No later part can copy one of this many triangles.
-                originals.retain(|&(other, ..), _| other != length);
+                originals.retain(|&(other, ..), kept| {
+                    if other == length {
+                        kept_bytes -= kept.iter().map(Original::kept_bytes).sum::<usize>();
+                    }
+                    other != length
+                });
             }
         }
     }
@@ -272,7 +339,7 @@ mod tests {
 
     /// The same scene with its vertices strewn through the list (a part's
     /// vertices far apart, so numbered through a hash map) finds the same
-    /// copies, on one thread or several.
+    /// copies, on one thread or several, and with no original kept.
     #[test]
     fn strewn_vertices_and_threads_find_the_same_copies() {
         let ring = torus(Vec3::ZERO, 1.0, 0.3, 16, 8);
@@ -324,6 +391,13 @@ mod tests {
         assert_eq!(originals(&scene, Backend::Parallel), expected);
         assert_eq!(originals(&strewn, Backend::Serial), expected);
         assert_eq!(originals(&strewn, Backend::Parallel), expected);
+        // Nothing kept: every original read again, the same copies.
+        let read_again: Vec<Option<usize>> =
+            congruent_parts_keeping(&scene, &lists, Backend::Parallel, 0)
+                .iter()
+                .map(|c| c.map(|(j, _)| j))
+                .collect();
+        assert_eq!(read_again, expected);
     }
 
     fn gcd(a: usize, b: usize) -> usize {
