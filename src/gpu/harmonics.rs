@@ -2,7 +2,7 @@
 //! signatures read back.
 
 use super::solid::{Cells, GpuSolid};
-use super::{Dispatch, storage};
+use super::{Dispatch, Gpu, storage};
 use crate::descriptor::LocalFuture;
 use crate::descriptor::harmonics::{DEGREES, Signature, SphereSampler};
 
@@ -32,13 +32,52 @@ struct Params {
     groups_x: u32,
 }
 
+/// A sphere's sample tables on the device ([`SphereSampler::sample_tables`]).
+/// They depend on its radius and level alone, so every part of a search,
+/// and every search on the device, reads the same ones: kept, not built and
+/// uploaded per part and layer.
+#[derive(Clone)]
+pub(super) struct SampleTables {
+    /// The sphere's radius (as bits) and level.
+    pub sphere: (u64, u32),
+    offsets: wgpu::Buffer,
+    fractions: wgpu::Buffer,
+}
+
+/// Spheres whose tables are kept, the latest used first: a search reads a
+/// few radii (a layer each), 128 KiB a sphere.
+const SPHERES_KEPT: usize = 32;
+
+impl Gpu {
+    /// `sampler`'s tables on the device, uploaded unless kept from an
+    /// earlier part or search.
+    pub(super) fn sample_tables(&self, sampler: &SphereSampler) -> SampleTables {
+        let key = (sampler.radius().to_bits(), sampler.level());
+        let mut kept = self.sample_tables.lock().unwrap_or_else(|p| p.into_inner());
+        let tables = match kept.iter().position(|t| t.sphere == key) {
+            Some(i) => kept.remove(i),
+            None => {
+                let (offsets, fractions) = sampler.sample_tables();
+                SampleTables {
+                    sphere: key,
+                    offsets: storage(&self.device, "offsets", bytemuck::cast_slice(&offsets)),
+                    fractions: storage(&self.device, "fractions", bytemuck::cast_slice(&fractions)),
+                }
+            }
+        };
+        kept.insert(0, tables.clone());
+        kept.truncate(SPHERES_KEPT);
+        tables
+    }
+}
+
 impl GpuSolid<'_> {
     /// Starts one chunk of candidates: the future returns its kernel's
     /// output.
     fn start_chunk(
         &self,
         sampler: &SphereSampler,
-        tables: &(wgpu::Buffer, wgpu::Buffer),
+        tables: &SampleTables,
         voxels: &[[u16; 3]],
     ) -> Result<LocalFuture<'_, Result<Vec<u8>, String>>, String> {
         let gpu = self.gpu;
@@ -71,8 +110,8 @@ impl GpuSolid<'_> {
                 inputs: &[
                     &cells.buffer,
                     &origins,
-                    &tables.0,
-                    &tables.1,
+                    &tables.offsets,
+                    &tables.fractions,
                     &gpu.fourier,
                     &gpu.legendre,
                 ],
@@ -91,15 +130,7 @@ impl GpuSolid<'_> {
         sampler: &SphereSampler,
         voxels: &[[u16; 3]],
     ) -> Result<Vec<Signature>, String> {
-        let (offsets, fractions) = sampler.sample_tables();
-        let tables = (
-            storage(&self.gpu.device, "offsets", bytemuck::cast_slice(&offsets)),
-            storage(
-                &self.gpu.device,
-                "fractions",
-                bytemuck::cast_slice(&fractions),
-            ),
-        );
+        let tables = self.gpu.sample_tables(sampler);
         let started = voxels
             .chunks(CHUNK)
             .map(|chunk| self.start_chunk(sampler, &tables, chunk))

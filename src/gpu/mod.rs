@@ -62,6 +62,9 @@ pub struct Gpu {
     /// Balls' run tables on the device, the latest used first (see
     /// `volume::BallTables`).
     ball_tables: Mutex<Vec<volume::BallTables>>,
+    /// Spheres' sample tables on the device, the latest used first (see
+    /// `harmonics::SampleTables`).
+    sample_tables: Mutex<Vec<harmonics::SampleTables>>,
     /// Submissions and kernels so far (see [`Gpu::submissions`]).
     submissions: std::sync::atomic::AtomicUsize,
     kernels: std::sync::atomic::AtomicUsize,
@@ -165,6 +168,7 @@ impl Gpu {
             balls,
             failures,
             ball_tables: Mutex::default(),
+            sample_tables: Mutex::default(),
             submissions: Default::default(),
             kernels: Default::default(),
             waited_ns: Default::default(),

@@ -99,6 +99,34 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
     );
 }
 
+/// A sphere's tables depend on its radius and level alone: two parts'
+/// solids read the same ones, uploaded once, with the CPU's results.
+#[test]
+fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
+    let Some(gpu) = test_gpu() else { return };
+    let t = SphericalTransform::new();
+    for voxel in [0.02, 0.03] {
+        let solid = lumpy_solid(voxel);
+        let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+            .iter_ones()
+            .step_by(53)
+            .take(100)
+            .collect();
+        let on_gpu = GpuSolid::new(&gpu, &solid);
+        for radius in [4.5, 30.0] {
+            let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
+            let got = pollster::block_on(on_gpu.signatures(&sampler, &voxels)).unwrap();
+            for (v, g) in voxels.iter().zip(&got) {
+                let want = describe_sphere(&solid, *v, &sampler, &t);
+                for l in 0..DEGREES {
+                    assert!((g[l] - want[l]).abs() <= harmonics::MAX_ERROR / 4.0);
+                }
+            }
+        }
+    }
+    assert_eq!(gpu.sample_tables.lock().unwrap().len(), 2);
+}
+
 #[test]
 fn gpu_ball_counts_equal_the_cpus() {
     use crate::descriptor::volume::BLOCKS_PER_RADIUS;
