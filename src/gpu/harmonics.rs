@@ -2,7 +2,7 @@
 //! signatures read back.
 
 use super::solid::{Cells, GpuSolid};
-use super::{Dispatch, Gpu, storage};
+use super::{Dispatch, Gpu, kept_tables, storage};
 use crate::descriptor::LocalFuture;
 use crate::descriptor::harmonics::{DEGREES, Signature, SphereSampler};
 
@@ -44,30 +44,35 @@ pub(super) struct SampleTables {
     fractions: wgpu::Buffer,
 }
 
-/// Spheres whose tables are kept, the latest used first: a search reads a
-/// few radii (a layer each), 128 KiB a sphere.
-const SPHERES_KEPT: usize = 32;
+impl SampleTables {
+    fn bytes(&self) -> u64 {
+        self.offsets.size() + self.fractions.size()
+    }
+}
+
+/// Bytes of sample tables kept on the device: a search reads a few
+/// spheres (a layer each), 128 KiB a sphere.
+const TABLES_KEPT: u64 = 4 << 20;
 
 impl Gpu {
     /// `sampler`'s tables on the device, uploaded unless kept from an
     /// earlier part or search.
     pub(super) fn sample_tables(&self, sampler: &SphereSampler) -> SampleTables {
         let key = (sampler.radius().to_bits(), sampler.level());
-        let mut kept = self.sample_tables.lock().unwrap_or_else(|p| p.into_inner());
-        let tables = match kept.iter().position(|t| t.sphere == key) {
-            Some(i) => kept.remove(i),
-            None => {
+        kept_tables(
+            &self.sample_tables,
+            |t| t.sphere == key,
+            || {
                 let (offsets, fractions) = sampler.sample_tables();
                 SampleTables {
                     sphere: key,
                     offsets: storage(&self.device, "offsets", bytemuck::cast_slice(&offsets)),
                     fractions: storage(&self.device, "fractions", bytemuck::cast_slice(&fractions)),
                 }
-            }
-        };
-        kept.insert(0, tables.clone());
-        kept.truncate(SPHERES_KEPT);
-        tables
+            },
+            SampleTables::bytes,
+            TABLES_KEPT,
+        )
     }
 }
 

@@ -419,6 +419,31 @@ impl<T> std::future::Future for Slot<T> {
     }
 }
 
+/// Tables that depend on a ball or sphere alone, not on the solid, kept on
+/// the device for every part and search, the latest used first: the one
+/// `found` picks if kept, else `upload`ed; the list keeps as many as fit
+/// in `limit` bytes by `bytes`.
+fn kept_tables<T: Clone>(
+    kept: &Mutex<Vec<T>>,
+    found: impl Fn(&T) -> bool,
+    upload: impl FnOnce() -> T,
+    bytes: impl Fn(&T) -> u64,
+    limit: u64,
+) -> T {
+    let mut kept = kept.lock().unwrap_or_else(|p| p.into_inner());
+    let tables = match kept.iter().position(found) {
+        Some(i) => kept.remove(i),
+        None => upload(),
+    };
+    kept.insert(0, tables.clone());
+    let mut total = 0;
+    kept.retain(|t| {
+        total += bytes(t);
+        total <= limit
+    });
+    tables
+}
+
 /// A read-only storage buffer holding `bytes`.
 fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     use wgpu::util::DeviceExt;

@@ -2,7 +2,7 @@
 //! read back, with as many lanes per candidate as keep the GPU busy.
 
 use super::solid::{Cells, GpuSolid};
-use super::{Dispatch, Gpu, storage};
+use super::{Dispatch, Gpu, kept_tables, storage};
 use crate::voxel::Ball;
 
 /// The kernel's WGSL source.
@@ -64,10 +64,10 @@ impl Gpu {
     /// earlier part or search.
     pub(super) fn ball_tables(&self, ball: &Ball) -> BallTables {
         let key = (ball.radius().to_bits(), ball.level());
-        let mut kept = self.ball_tables.lock().unwrap_or_else(|p| p.into_inner());
-        let tables = match kept.iter().position(|t| t.ball == key) {
-            Some(i) => kept.remove(i),
-            None => {
+        kept_tables(
+            &self.ball_tables,
+            |t| t.ball == key,
+            || {
                 let (runs, starts) = ball.run_tables();
                 BallTables {
                     ball: key,
@@ -75,15 +75,10 @@ impl Gpu {
                     runs: storage(&self.device, "runs", bytemuck::cast_slice(&runs)),
                     starts: storage(&self.device, "phase starts", bytemuck::cast_slice(&starts)),
                 }
-            }
-        };
-        kept.insert(0, tables.clone());
-        let mut total = 0;
-        kept.retain(|t| {
-            total += t.bytes();
-            total <= TABLES_KEPT
-        });
-        tables
+            },
+            BallTables::bytes,
+            TABLES_KEPT,
+        )
     }
 }
 
