@@ -17,9 +17,10 @@
 # shared ones; both the comparison and the bench take them (a 3 000-part
 # building scene adds about 11 s per CPU search on 2 threads). Mind a
 # device tool's carry limit (64 MiB): the shared scenes and one build
-# take 50 MB, a second build 13 MB more, that building scene 15 MB. GPU_CHECK_BASE=COMMIT at pack time
-# packs that commit's build too (built in a git worktree): run then
-# benches both on the GPU, alternating, for a before/after on one machine.
+# take 50 MB, a second build 13 MB more, that building scene 15 MB.
+# GPU_CHECK_BASE=COMMIT at pack time packs that commit's build too
+# (built in a git worktree): run then benches both on the GPU,
+# alternating, for a before/after on one machine.
 # Seen working on an NVIDIA H100 (driver 580, its Vulkan ICD under
 # /usr/local/nvidia): docs/BENCHMARKS.md, "GPU backend on an NVIDIA H100".
 set -euo pipefail

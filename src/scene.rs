@@ -172,7 +172,7 @@ impl ScenePart {
         let mut vertices = Vec::new();
         for &t in triangles {
             for v in mesh.triangles()[t as usize] {
-                if numbering.local(v, vertices.len() as u32) as usize == vertices.len() {
+                if numbering.number(v).1 {
                     vertices.push(mesh.vertex(v));
                 }
             }

@@ -48,6 +48,15 @@ pub(crate) fn test_gpu() -> Option<Gpu> {
     }
 }
 
+/// Every `step`-th voxel of `solid`'s skin, at most `most` of them.
+fn skin_sample(solid: &Solid, step: usize, most: usize) -> Vec<[u16; 3]> {
+    skin(solid.bits(), Backend::Serial)
+        .iter_ones()
+        .step_by(step)
+        .take(most)
+        .collect()
+}
+
 /// A shape with flat faces, curved ones and a hole, voxelized.
 fn lumpy_solid(voxel: f64) -> Solid {
     let mut m = uv_sphere(Vec3::ZERO, 0.6, 48, 96);
@@ -65,11 +74,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
     let Some(gpu) = test_gpu() else { return };
     let solid = lumpy_solid(0.02);
     let t = SphericalTransform::new();
-    let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
-        .iter_ones()
-        .step_by(97)
-        .take(300)
-        .collect();
+    let voxels = skin_sample(&solid, 97, 300);
     let spheres = GpuSolid::new(&gpu, &solid);
     let mut levels = Vec::new();
     // Radii in voxels from a few (the bit grid) to past the shape (pyramid
@@ -107,11 +112,7 @@ fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
     let t = SphericalTransform::new();
     for voxel in [0.02, 0.03] {
         let solid = lumpy_solid(voxel);
-        let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
-            .iter_ones()
-            .step_by(53)
-            .take(100)
-            .collect();
+        let voxels = skin_sample(&solid, 53, 100);
         let on_gpu = GpuSolid::new(&gpu, &solid);
         for radius in [4.5, 30.0] {
             let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
@@ -136,10 +137,7 @@ fn gpu_ball_counts_equal_the_cpus() {
     let dims = solid.bits().dims().map(|d| d as u16 - 1);
     // Skin voxels, and the grid's corners and an edge's middle, where the
     // balls are clipped on every side.
-    let mut voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
-        .iter_ones()
-        .step_by(13)
-        .collect();
+    let mut voxels = skin_sample(&solid, 13, usize::MAX);
     voxels.extend([[0, 0, 0], dims, [dims[0] / 2, 0, dims[2]], [0, dims[1], 1]]);
     let on_gpu = GpuSolid::new(&gpu, &solid);
     let mut levels = Vec::new();
@@ -177,10 +175,7 @@ fn a_balls_run_tables_are_uploaded_once_for_every_part() {
         let on_gpu = GpuSolid::new(&gpu, &solid);
         for ball in [&small, &large] {
             let ball = ball.clone().bind(&solid, Backend::Serial);
-            let voxels: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
-                .iter_ones()
-                .step_by(31)
-                .collect();
+            let voxels = skin_sample(&solid, 31, usize::MAX);
             let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
             let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
             assert_eq!(got, want, "ball of {} voxels", ball.radius());
@@ -204,10 +199,7 @@ fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
     let work: Vec<(Ball, Vec<[u16; 3]>)> = solids
         .iter()
         .map(|solid| {
-            let voxels = skin(solid.bits(), Backend::Serial)
-                .iter_ones()
-                .step_by(17)
-                .collect();
+            let voxels = skin_sample(solid, 17, usize::MAX);
             (ball.clone().bind(solid, Backend::Serial), voxels)
         })
         .collect();

@@ -11,7 +11,13 @@ use super::{FxHasher, TriMesh};
 /// vertices mostly lie together in the mesh's list (an exporter writes a
 /// part at a time), so an array over their span serves; a part whose
 /// vertices are strewn through the list takes a hash map.
-pub(crate) enum VertexNumbering {
+pub(crate) struct VertexNumbering {
+    index: Index,
+    /// Vertices numbered so far.
+    count: u32,
+}
+
+enum Index {
     Span { first: u32, local: Vec<u32> },
     Strewn(HashMap<u32, u32, BuildHasherDefault<FxHasher>>),
 }
@@ -27,32 +33,38 @@ impl VertexNumbering {
         // An array 4 bytes a slot against a map's 16 or more an entry,
         // filled at once: worth it while the span is within a few times
         // the corners.
-        match span <= 4 * 3 * triangles.len() {
-            true => VertexNumbering::Span {
+        let index = match span <= 4 * 3 * triangles.len() {
+            true => Index::Span {
                 first,
                 local: vec![u32::MAX; span],
             },
-            false => VertexNumbering::Strewn(HashMap::default()),
-        }
+            false => Index::Strewn(HashMap::default()),
+        };
+        VertexNumbering { index, count: 0 }
     }
 
-    /// `v`'s local index, `next` if it has none yet.
-    pub(crate) fn local(&mut self, v: u32, next: u32) -> u32 {
-        match self {
-            VertexNumbering::Span { first, local } => {
+    /// `v`'s local index, and whether this is its first use (it takes the
+    /// next number).
+    pub(crate) fn number(&mut self, v: u32) -> (u32, bool) {
+        let next = self.count;
+        let local = match &mut self.index {
+            Index::Span { first, local } => {
                 let slot = &mut local[(v - *first) as usize];
                 if *slot == u32::MAX {
                     *slot = next;
                 }
                 *slot
             }
-            VertexNumbering::Strewn(map) => *map.entry(v).or_insert(next),
-        }
+            Index::Strewn(map) => *map.entry(v).or_insert(next),
+        };
+        let first_use = local == next;
+        self.count += u32::from(first_use);
+        (local, first_use)
     }
 
     /// Whether the part's vertices were too strewn for an array.
     #[cfg(test)]
     pub(crate) fn is_strewn(&self) -> bool {
-        matches!(self, VertexNumbering::Strewn(_))
+        matches!(self.index, Index::Strewn(_))
     }
 }

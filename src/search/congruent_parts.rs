@@ -48,8 +48,8 @@ impl Local {
         let mut pattern = Vec::with_capacity(3 * triangles.len());
         for &t in triangles {
             for v in mesh.triangles()[t as usize] {
-                let local = numbering.local(v, vertices.len() as u32);
-                if local as usize == vertices.len() {
+                let (local, first_use) = numbering.number(v);
+                if first_use {
                     vertices.push(mesh.vertex(v));
                 }
                 pattern.push(local);
