@@ -455,7 +455,9 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
 }
 
 fn unavailable(reason: String) -> Error {
-    Error::Gpu { reason }
+    Error::Gpu {
+        reason: reason.into(),
+    }
 }
 
 // Native: they block on the device (the browser's path has its own test,

@@ -4,7 +4,11 @@
 //! that does not fit in memory) is a variant here with a message that says
 //! what to change. Nothing in the library panics on bad input.
 
+mod file_text;
+
 use std::fmt;
+
+pub use file_text::{FileText, escape, escape_bytes};
 
 /// The mesh file formats the loaders understand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -63,9 +67,9 @@ pub enum Error {
         /// The format being parsed.
         format: Format,
         /// Where: a line number, a byte offset or a glTF object.
-        location: String,
-        /// What is wrong, in words.
-        message: String,
+        location: FileText,
+        /// What is wrong, in words (what it quotes from the file escaped).
+        message: FileText,
     },
 
     /// A glTF file refers to an external buffer that was not supplied.
@@ -73,23 +77,24 @@ pub enum Error {
         "glTF buffer '{uri}' is not available: put it beside the .gltf file or use a .glb with embedded buffers"
     )]
     MissingResource {
-        /// The URI as written in the file.
-        uri: String,
+        /// The URI as written in the file, escaped and bounded.
+        uri: FileText,
     },
 
     /// A glTF file refers to an external buffer that may not or cannot be
     /// read: a URI leading out of the model's folder, a link, a device.
     #[error("glTF buffer '{uri}' is not read: {reason}")]
     ResourceRefused {
-        /// The URI as written in the file.
-        uri: String,
+        /// The URI as written in the file, escaped and bounded.
+        uri: FileText,
         /// Why, in words.
-        reason: String,
+        reason: FileText,
     },
 
-    /// The mesh, as the file places it, passes the loaders' size limits.
+    /// The mesh, as the file builds it (polygons split into triangles,
+    /// instances placed), passes the loaders' size limits.
     #[error(
-        "the mesh would have {vertices} vertices and {triangles} triangles once every instance is placed, above the limit of {} of each or {} in all: split the model or place fewer copies",
+        "the mesh would have {vertices} vertices and {triangles} triangles (polygons split, every glTF instance placed), above the limit of {} of each or {} in all: split the model, or place fewer copies",
         .limit, mib(*.max_bytes)
     )]
     MeshTooLarge {
@@ -181,7 +186,7 @@ pub enum Error {
     /// (large triangles crossing each other, each its own part), and each
     /// part's grid fills its box.
     #[error(
-        "the scene's parts that could hold the template span {voxels:.3e} voxels together at resolution {resolution}, over {limit:.3e} ({factor} times the whole scene's grid): their bounding boxes overlap many times; {advice}"
+        "the scene's parts that could hold the template span {voxels:.3e} voxels together at resolution {resolution}, over {limit:.3e} ({factor} times the whole scene's grid, padded as theirs are): their bounding boxes overlap many times; {advice}"
     )]
     PartsOverlap {
         /// The voxels of the parts' grids, together.
@@ -254,8 +259,9 @@ pub enum Error {
     InvalidOption {
         /// The option's name.
         name: &'static str,
-        /// Why the value is rejected and what is accepted.
-        message: String,
+        /// Why the value is rejected and what is accepted (a caller's
+        /// text in it escaped).
+        message: FileText,
     },
 
     /// The caller's observer asked to stop.
@@ -265,8 +271,9 @@ pub enum Error {
     /// A GPU was asked for and cannot be used.
     #[error("no usable GPU: {reason}")]
     Gpu {
-        /// What failed (no adapter, no device, a device error).
-        reason: String,
+        /// What failed (no adapter, no device, a device error), in the
+        /// driver's words, escaped.
+        reason: FileText,
     },
 }
 
@@ -282,8 +289,8 @@ impl Error {
     ) -> Error {
         Error::Malformed {
             format,
-            location: location.into(),
-            message: message.into(),
+            location: FileText::new(&location.into()),
+            message: FileText::new(&message.into()),
         }
     }
 
@@ -303,7 +310,7 @@ impl Error {
     pub(crate) fn invalid_option(name: &'static str, message: impl Into<String>) -> Error {
         Error::InvalidOption {
             name,
-            message: message.into(),
+            message: FileText::new(&message.into()),
         }
     }
 }
