@@ -30,6 +30,82 @@ pub const MAX_VERTICES: usize = 1 << 25;
 /// The most triangles a loaded mesh may have: 2^25, as [`MAX_VERTICES`].
 pub const MAX_TRIANGLES: usize = 1 << 25;
 
+/// The loaders' limit on the mesh they build, checked before it grows: a
+/// file's declared counts and its compact encodings (a PLY face of 255
+/// one-byte corners is 253 triangles, twelve times its bytes; a glTF node
+/// placing a mesh again) may ask for far more than the file's size.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SizeLimit {
+    max_bytes: u64,
+}
+
+impl SizeLimit {
+    /// At most [`MAX_VERTICES`], [`MAX_TRIANGLES`], and `max_bytes` for
+    /// both (12 bytes a vertex and 12 a triangle).
+    pub(crate) fn new(max_bytes: u64) -> SizeLimit {
+        SizeLimit { max_bytes }
+    }
+
+    /// Fails when a mesh of `vertices` and `triangles` would pass the limit.
+    pub(crate) fn check(&self, vertices: usize, triangles: usize) -> Result<()> {
+        let bytes = 12 * (vertices as u64).saturating_add(triangles as u64);
+        if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES || bytes > self.max_bytes {
+            return Err(Error::MeshTooLarge {
+                limit: MAX_VERTICES as u64,
+                vertices: vertices as u64,
+                triangles: triangles as u64,
+                max_bytes: self
+                    .max_bytes
+                    .min(12 * (MAX_VERTICES + MAX_TRIANGLES) as u64),
+            });
+        }
+        Ok(())
+    }
+
+    /// The most triangles a mesh of `vertices` may have.
+    pub(crate) fn triangles_beside(&self, vertices: usize) -> usize {
+        let by_bytes = (self.max_bytes / 12).saturating_sub(vertices as u64);
+        MAX_TRIANGLES.min(usize::try_from(by_bytes).unwrap_or(usize::MAX))
+    }
+}
+
+/// The most bytes loading a file of `len` bytes that starts with `head`
+/// may hold at once, its own copy included, when the loaders refuse a mesh
+/// over `max_mesh_bytes` (see [`load_within`]): for a host that must check
+/// before it copies the file in, such as a wasm module, where a failed
+/// allocation cannot be caught.
+pub fn peak_load_bytes(head: &[u8], len: u64, max_mesh_bytes: u64) -> u64 {
+    // Per format: mesh bytes per file byte at most, for its densest
+    // encoding, and whether the mesh grows by doubling (twice its size for
+    // a moment) or is allocated at its final size.
+    // A binary STL is known by its length, which `head` alone lacks.
+    let stl_count = head
+        .get(80..84)
+        .map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+    let format = match stl_count {
+        Some(n) if 84 + 50 * n == len && !head.starts_with(b"glTF") => Some(Format::Stl),
+        _ => sniff(head),
+    };
+    let (per_byte, doubling) = match format {
+        // A binary face of 255 one-byte corners (256 bytes) is 253
+        // triangles (3036 bytes); vertices take at least 3 bytes for 12.
+        Some(Format::Ply) => (12, true),
+        // A corner takes two bytes ("1 ") for a 12-byte triangle.
+        Some(Format::Obj) => (6, true),
+        // 50 bytes a triangle: 36 of corners, then ids, vertices and
+        // triangles when they are welded, each allocated once.
+        Some(Format::Stl) => (2, false),
+        // Buffers as large as the file (data URIs decode to 3/4 of their
+        // text), then the placed mesh, counted before it is allocated once:
+        // any size up to the limit, since a node may place a mesh again.
+        Some(Format::Gltf) | None => {
+            return len.saturating_mul(2).saturating_add(max_mesh_bytes);
+        }
+    };
+    let mesh = len.saturating_mul(per_byte).min(max_mesh_bytes);
+    len.saturating_add(mesh.saturating_mul(if doubling { 2 } else { 1 }))
+}
+
 /// Loads a mesh from bytes; `format` `None` means: recognize it from the content.
 pub fn load(bytes: &[u8], format: Option<Format>) -> Result<TriMesh> {
     load_with_resources(bytes, format, &NoResources)
@@ -44,10 +120,11 @@ pub fn load_with_resources(
     load_within(bytes, format, resources, u64::MAX)
 }
 
-/// Like [`load_with_resources`], refusing a glTF whose placed instances
-/// would need more than `max_mesh_bytes` (12 bytes a vertex and 12 a
-/// triangle) before copying them: for a host with little memory, such as a
-/// wasm module, where a failed allocation cannot be caught.
+/// Like [`load_with_resources`], refusing a mesh that would need more than
+/// `max_mesh_bytes` (12 bytes a vertex and 12 a triangle) before it is
+/// built (a glTF's placed instances, a PLY's or OBJ's polygons): for a
+/// host with little memory, such as a wasm module, where a failed
+/// allocation cannot be caught.
 pub fn load_within(
     bytes: &[u8],
     format: Option<Format>,
@@ -73,17 +150,44 @@ pub fn load_within(
             ),
         ));
     }
+    let limit = SizeLimit::new(max_mesh_bytes);
     match format {
-        Format::Gltf => gltf::parse(bytes, resources, max_mesh_bytes),
-        Format::Obj => obj::parse(bytes),
-        Format::Ply => ply::parse(bytes),
-        Format::Stl => stl::parse(bytes),
+        Format::Gltf => gltf::parse(bytes, resources, limit),
+        Format::Obj => obj::parse(bytes, limit),
+        Format::Ply => ply::parse(bytes, limit),
+        Format::Stl => stl::parse(bytes, limit),
+    }
+}
+
+/// Whether the length is what a binary STL's triangle count makes it.
+fn is_binary_stl(bytes: &[u8]) -> bool {
+    match bytes.get(80..84) {
+        Some(&[a, b, c, d]) => {
+            84 + 50 * u64::from(u32::from_le_bytes([a, b, c, d])) == bytes.len() as u64
+        }
+        _ => false,
+    }
+}
+
+/// Whether this is a GLB whose header declares the file's own length.
+fn is_glb(bytes: &[u8]) -> bool {
+    match bytes.get(..12) {
+        Some(&[b'g', b'l', b'T', b'F', _, _, _, _, a, b, c, d]) => {
+            u64::from(u32::from_le_bytes([a, b, c, d])) == bytes.len() as u64
+        }
+        _ => false,
     }
 }
 
 /// The format that a file's magic bytes name, with the magic: only the
-/// signatures no other format can start with.
+/// signatures no other format can start with. A binary STL's 80-byte
+/// header is free text that may start with any of them, so a file whose
+/// length fits its triangle count is an STL, not what its header says
+/// (unless it is a GLB that declares its own length).
 fn magic(bytes: &[u8]) -> Option<(Format, &'static str)> {
+    if is_binary_stl(bytes) && !is_glb(bytes) {
+        return None;
+    }
     if bytes.starts_with(b"glTF") {
         Some((Format::Gltf, "glTF"))
     } else if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
@@ -95,19 +199,20 @@ fn magic(bytes: &[u8]) -> Option<(Format, &'static str)> {
 
 /// Recognizes a format from the first bytes (and, for binary STL, the length).
 pub fn sniff(bytes: &[u8]) -> Option<Format> {
+    if is_glb(bytes) {
+        return Some(Format::Gltf);
+    }
+    // A binary STL's length is fixed by its triangle count: check it before
+    // the magic of other formats and the ASCII "solid" keyword, which its
+    // free-text header may carry.
+    if is_binary_stl(bytes) {
+        return Some(Format::Stl);
+    }
     if bytes.starts_with(b"glTF") {
         return Some(Format::Gltf);
     }
     if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
         return Some(Format::Ply);
-    }
-    // A binary STL's length is fixed by its triangle count: check it before the
-    // ASCII "solid" keyword, which binary headers often carry too.
-    if bytes.len() >= 84 {
-        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
-        if 84 + 50 * n == bytes.len() as u64 {
-            return Some(Format::Stl);
-        }
     }
     let text = trim_start(bytes);
     if text.starts_with(b"{") {

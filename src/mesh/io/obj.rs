@@ -9,10 +9,16 @@
 
 use crate::error::{Error, Format, Result};
 use crate::mesh::TriMesh;
+use crate::mesh::io::SizeLimit;
 
-pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
+pub(super) fn parse(bytes: &[u8], limit: SizeLimit) -> Result<TriMesh> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    let mut obj = Obj::default();
+    let mut obj = Obj {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        corners: Vec::new(),
+        limit,
+    };
     // A statement continued with `\` is gathered here; errors name its first line.
     let mut joined = Vec::new();
     let mut joined_from: Option<usize> = None;
@@ -45,13 +51,15 @@ pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
     TriMesh::new(obj.positions, obj.triangles)
 }
 
-#[derive(Default)]
 struct Obj {
     positions: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
     /// Scratch for the corners of the current face, reused to avoid an
     /// allocation per face.
     corners: Vec<u32>,
+    /// Checked before the mesh grows: a polygon of short indices makes
+    /// six times its bytes of triangles.
+    limit: SizeLimit,
 }
 
 impl Obj {
@@ -100,6 +108,8 @@ impl Obj {
             })?;
         }
         // A `w` or vertex colours may follow; they do not affect the shape.
+        self.limit
+            .check(self.positions.len() + 1, self.triangles.len())?;
         self.positions.push(p);
         Ok(())
     }
@@ -143,6 +153,9 @@ impl Obj {
             self.corners.push(resolved);
         }
         // A fan; faces with fewer than 3 corners add nothing.
+        let adds = self.corners.len().saturating_sub(2);
+        self.limit
+            .check(self.positions.len(), self.triangles.len() + adds)?;
         if let Some((&first, rest)) = self.corners.split_first() {
             for pair in rest.windows(2) {
                 if let [b, c] = *pair {
@@ -202,18 +215,18 @@ fn malformed(line: usize, message: impl Into<String>) -> Error {
 }
 
 /// Keeps messages readable when a token is a long run of garbage.
-fn shorten(word: &str) -> String {
-    const MAX: usize = 32;
-    if word.chars().count() <= MAX {
-        word.to_string()
-    } else {
-        word.chars().take(MAX).chain("...".chars()).collect()
-    }
+/// A word for a message: escaped, and cut short if it is long garbage.
+fn shorten(word: &str) -> crate::error::FileText {
+    crate::error::FileText::word(word.as_bytes())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn parse(bytes: &[u8]) -> Result<TriMesh> {
+        super::parse(bytes, SizeLimit::new(u64::MAX))
+    }
 
     fn message(e: Error) -> String {
         e.to_string()

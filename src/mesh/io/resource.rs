@@ -11,7 +11,7 @@ use std::fmt;
 
 /// A relative path below the model's folder, from a glTF `uri`: its
 /// components are plain names (no `..`, no `.`, no separators, no NUL).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct ResourcePath {
     components: Vec<String>,
 }

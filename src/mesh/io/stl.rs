@@ -10,19 +10,20 @@
 //! merged so the mesh has the shared vertices later stages need.
 
 use crate::error::{Error, Format, Result};
+use crate::mesh::io::SizeLimit;
 use crate::mesh::{TriMesh, weld_vertices};
 
 const HEADER: usize = 80;
 const RECORD: usize = 50;
 
-pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
+pub(super) fn parse(bytes: &[u8], limit: SizeLimit) -> Result<TriMesh> {
     let declared = bytes
         .get(HEADER..HEADER + 4)
         .and_then(|b| <[u8; 4]>::try_from(b).ok())
         .map(u32::from_le_bytes);
     if let Some(count) = declared {
         if binary_size(count) == bytes.len() as u64 {
-            return binary(bytes);
+            return binary(bytes, limit);
         }
     }
     let text = trim_start(bytes);
@@ -30,7 +31,7 @@ pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
         .get(..5)
         .is_some_and(|w| w.eq_ignore_ascii_case(b"solid"));
     match (is_ascii, declared) {
-        (true, Some(count)) => ascii(bytes).map_err(|e| {
+        (true, Some(count)) => ascii(bytes, limit).map_err(|e| {
             // A binary file whose header says "solid" but whose length is off
             // fails as text: the size is the useful thing to report then.
             if looks_binary(bytes) {
@@ -39,7 +40,7 @@ pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
                 e
             }
         }),
-        (true, None) => ascii(bytes),
+        (true, None) => ascii(bytes, limit),
         (false, Some(count)) => Err(size_mismatch(count, bytes.len())),
         (false, None) => Err(Error::malformed(
             Format::Stl,
@@ -86,8 +87,12 @@ fn trim_start(bytes: &[u8]) -> &[u8] {
 }
 
 /// Reads a binary STL whose length the caller has checked.
-fn binary(bytes: &[u8]) -> Result<TriMesh> {
+fn binary(bytes: &[u8], limit: SizeLimit) -> Result<TriMesh> {
     let records = bytes.get(HEADER + 4..).unwrap_or_default();
+    // Welded, a closed surface has about half as many vertices as
+    // triangles; the welded mesh is checked again below.
+    let count = records.len() / RECORD;
+    limit.check(count / 2, count)?;
     let mut corners = Vec::with_capacity(records.len() / RECORD * 3);
     for record in records.chunks_exact(RECORD) {
         // Skip the normal (recomputed from the corners when needed) and the
@@ -105,7 +110,7 @@ fn binary(bytes: &[u8]) -> Result<TriMesh> {
             corners.push(p);
         }
     }
-    weld(corners, "header")
+    weld(corners, "header", limit)
 }
 
 /// Whitespace-separated words with the line each starts on.
@@ -174,7 +179,7 @@ impl<'a> Words<'a> {
     }
 }
 
-fn ascii(bytes: &[u8]) -> Result<TriMesh> {
+fn ascii(bytes: &[u8], limit: SizeLimit) -> Result<TriMesh> {
     let mut words = Words {
         bytes,
         pos: 0,
@@ -190,6 +195,8 @@ fn ascii(bytes: &[u8]) -> Result<TriMesh> {
             words.skip_line();
         } else if word.eq_ignore_ascii_case(b"facet") {
             facet(&mut words, &mut loop_corners)?;
+            let triangles = corners.len() / 3 + loop_corners.len().saturating_sub(2);
+            limit.check(triangles / 2, triangles)?;
             // A fan over the loop; STL loops are triangles, but be lenient.
             if let Some((&first, rest)) = loop_corners.split_first() {
                 for pair in rest.windows(2) {
@@ -205,7 +212,7 @@ fn ascii(bytes: &[u8]) -> Result<TriMesh> {
             )));
         }
     }
-    weld(corners, "end of file")
+    weld(corners, "end of file", limit)
 }
 
 /// Reads one facet after its `facet` keyword, leaving its corners in `corners`.
@@ -263,7 +270,7 @@ fn is_number(word: &[u8]) -> bool {
 }
 
 /// Merges exactly equal corners into shared vertices.
-fn weld(corners: Vec<[f32; 3]>, location: &str) -> Result<TriMesh> {
+fn weld(corners: Vec<[f32; 3]>, location: &str, limit: SizeLimit) -> Result<TriMesh> {
     if corners.len() > u32::MAX as usize {
         return Err(Error::malformed(
             Format::Stl,
@@ -276,6 +283,7 @@ fn weld(corners: Vec<[f32; 3]>, location: &str) -> Result<TriMesh> {
         ));
     }
     let (ids, count) = weld_vertices(&corners);
+    limit.check(count, corners.len() / 3)?;
     let mut positions = Vec::with_capacity(count);
     // Ids are dense in order of first use: a new id is the next position.
     for (p, &id) in corners.iter().zip(&ids) {
@@ -291,16 +299,18 @@ fn weld(corners: Vec<[f32; 3]>, location: &str) -> Result<TriMesh> {
     TriMesh::new(positions, triangles)
 }
 
-/// A word for a message, cut short if it is long garbage.
-fn show(word: &[u8]) -> String {
-    const MAX: usize = 32;
-    let text = String::from_utf8_lossy(word.get(..MAX).unwrap_or(word)).into_owned();
-    if word.len() > MAX { text + "..." } else { text }
+/// A word for a message: escaped, and cut short if it is long garbage.
+fn show(word: &[u8]) -> crate::error::FileText {
+    crate::error::FileText::word(word)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn parse(bytes: &[u8]) -> Result<TriMesh> {
+        super::parse(bytes, SizeLimit::new(u64::MAX))
+    }
     use crate::mesh::io::fixtures;
 
     /// A binary STL of the given triangles, with `header` at the start.

@@ -1,6 +1,8 @@
 //! Buffers, views and accessors, read with every offset checked against the
 //! bytes actually there.
 
+use std::rc::Rc;
+
 use base64::Engine as _;
 use gltf::accessor::{DataType, Dimensions};
 
@@ -16,8 +18,9 @@ const UNSTORED_ELEMENTS_PER_BYTE: usize = 1;
 impl Loader<'_> {
     pub(super) fn buffer(&mut self, buffer: &gltf::Buffer) -> Result<&[u8]> {
         let i = buffer.index();
+        let length = buffer.length();
         if self.buffers[i].is_none() {
-            let data = match buffer.source() {
+            let data: Rc<[u8]> = match buffer.source() {
                 gltf::buffer::Source::Bin => self
                     .blob
                     .ok_or_else(|| {
@@ -27,45 +30,54 @@ impl Loader<'_> {
                             "refers to the GLB binary chunk, which is missing",
                         )
                     })?
-                    .to_vec(),
+                    .into(),
                 gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
                     Some(rest) => decode_data_uri(rest)
-                        .map_err(|m| Error::malformed(Format::Gltf, format!("buffer {i}"), m))?,
-                    None => {
-                        let refused = |reason: String| Error::ResourceRefused {
-                            uri: uri.to_string(),
-                            reason,
-                        };
-                        let path = ResourcePath::parse(uri).map_err(refused)?;
-                        match self.resources.resolve(&path, buffer.length()) {
-                            Ok(mut bytes) => {
-                                bytes.truncate(buffer.length());
-                                bytes
-                            }
-                            Err(ResourceError::Missing) => {
-                                return Err(Error::MissingResource {
-                                    uri: uri.to_string(),
-                                });
-                            }
-                            Err(ResourceError::Refused(reason)) => return Err(refused(reason)),
-                        }
-                    }
+                        .map_err(|m| Error::malformed(Format::Gltf, format!("buffer {i}"), m))?
+                        .into(),
+                    None => self.resource(uri, length)?,
                 },
             };
-            if data.len() < buffer.length() {
+            if data.len() < length {
                 return Err(Error::malformed(
                     Format::Gltf,
                     format!("buffer {i}"),
                     format!(
-                        "declares {} bytes but only {} are present (truncated file?)",
-                        buffer.length(),
+                        "declares {length} bytes but only {} are present (truncated file?)",
                         data.len()
                     ),
                 ));
             }
             self.buffers[i] = Some(data);
         }
-        Ok(self.buffers[i].as_deref().unwrap_or_default())
+        Ok(self.buffers[i]
+            .as_deref()
+            .and_then(|data| data.get(..length))
+            .unwrap_or_default())
+    }
+
+    /// An external resource's bytes, read once for every buffer naming it.
+    fn resource(&mut self, uri: &str, length: usize) -> Result<Rc<[u8]>> {
+        let refused = |reason: String| Error::ResourceRefused {
+            uri: uri.into(),
+            reason: reason.into(),
+        };
+        let path = ResourcePath::parse(uri).map_err(refused)?;
+        if let Some(read) = self.resources_read.get(&path) {
+            return Ok(Rc::clone(read));
+        }
+        let most = self.resource_lengths.get(&path).copied().unwrap_or(length);
+        let mut bytes = match self.resources.resolve(&path, most.max(length)) {
+            Ok(bytes) => bytes,
+            Err(ResourceError::Missing) => {
+                return Err(Error::MissingResource { uri: uri.into() });
+            }
+            Err(ResourceError::Refused(reason)) => return Err(refused(reason)),
+        };
+        bytes.truncate(most.max(length));
+        let read: Rc<[u8]> = bytes.into();
+        self.resources_read.insert(path, Rc::clone(&read));
+        Ok(read)
     }
 
     /// The bytes of a buffer view, checked against the buffer.

@@ -9,10 +9,11 @@
 //! once.
 
 use std::collections::HashMap;
+use std::rc::Rc;
 
 use gltf::mesh::Mode;
 
-use super::{MAX_TRIANGLES, MAX_VERTICES, ResourceResolver};
+use super::{ResourcePath, ResourceResolver, SizeLimit};
 use crate::error::{Error, Format, Result};
 use crate::mesh::{Part, TriMesh};
 
@@ -36,7 +37,7 @@ const IDENTITY: Mat4 = [
 pub(super) fn parse(
     bytes: &[u8],
     resources: &dyn ResourceResolver,
-    max_mesh_bytes: u64,
+    limit: SizeLimit,
 ) -> Result<TriMesh> {
     check_glb_header(bytes)?;
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
@@ -44,8 +45,10 @@ pub(super) fn parse(
     validate(&gltf.document)?;
     let mut loader = Loader {
         input_len: bytes.len(),
-        max_mesh_bytes,
+        limit,
         buffers: vec![None; gltf.buffers().len()],
+        resource_lengths: resource_lengths(&gltf.document),
+        resources_read: HashMap::new(),
         blob: gltf.blob.as_deref(),
         resources,
         meshes: HashMap::new(),
@@ -131,14 +134,28 @@ fn validate(document: &gltf::Document) -> Result<()> {
             }
         }
     }
+    check_required_extensions(&root.extensions_required)?;
     let mut problems = Vec::new();
+    let mut more = 0usize;
     root.validate(root, gltf::json::Path::new, &mut |path, rule| {
         let path = path();
         let bounds = path.as_str().ends_with(".min") || path.as_str().ends_with(".max");
-        if !(bounds && matches!(rule, Rule::Missing)) {
+        // Required extensions were judged above, by what they change.
+        let extension =
+            path.as_str().starts_with("extensionsRequired") && matches!(rule, Rule::Unsupported);
+        if bounds && matches!(rule, Rule::Missing) || extension {
+            return;
+        }
+        // A broken file may break a rule a million times: a few say enough.
+        if problems.len() < MAX_PROBLEMS {
             problems.push(format!("{path}: {rule}"));
+        } else {
+            more += 1;
         }
     });
+    if more > 0 {
+        problems.push(format!("and {more} more"));
+    }
     if problems.is_empty() {
         Ok(())
     } else {
@@ -148,6 +165,73 @@ fn validate(document: &gltf::Document) -> Result<()> {
             format!("invalid glTF: {}", problems.join("; ")),
         ))
     }
+}
+
+/// Rule violations a message lists before it counts the rest.
+const MAX_PROBLEMS: usize = 8;
+
+/// Extensions a file may require that change no triangle's place: they
+/// concern materials, textures, lights or cameras, which matching ignores.
+const GEOMETRY_NEUTRAL: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_anisotropy",
+    "KHR_materials_clearcoat",
+    "KHR_materials_dispersion",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_iridescence",
+    "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_variants",
+    "KHR_materials_volume",
+    "KHR_texture_basisu",
+    "KHR_texture_transform",
+    "EXT_texture_avif",
+    "EXT_texture_webp",
+    "MSFT_texture_dds",
+];
+
+/// Fails for a required extension that changes geometry and is not read.
+/// `KHR_mesh_quantization` is read: positions stored as (normalized)
+/// integers, which CAD and BIM exporters write to halve their files.
+fn check_required_extensions(required: &[String]) -> Result<()> {
+    for name in required {
+        if name == "KHR_mesh_quantization" || GEOMETRY_NEUTRAL.contains(&name.as_str()) {
+            continue;
+        }
+        let advice = match name.as_str() {
+            "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
+                "its geometry is compressed, which is not read: export it without compression"
+            }
+            "EXT_mesh_gpu_instancing" => {
+                "it places meshes by instancing attributes, which are not read: export the instances as nodes"
+            }
+            _ => "an extension a file requires may change its geometry, and this one is not read",
+        };
+        return Err(Error::malformed(
+            Format::Gltf,
+            "extensionsRequired",
+            format!("the file requires the extension '{name}': {advice}"),
+        ));
+    }
+    Ok(())
+}
+
+/// The most bytes a buffer reads of each external resource.
+fn resource_lengths(document: &gltf::Document) -> HashMap<ResourcePath, usize> {
+    let mut lengths = HashMap::new();
+    for buffer in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            if let Ok(path) = ResourcePath::parse(uri) {
+                let most = lengths.entry(path).or_insert(0);
+                *most = buffer.length().max(*most);
+            }
+        }
+    }
+    lengths
 }
 
 /// Local-space triangles of one mesh (all its triangle primitives).
@@ -160,8 +244,14 @@ struct Loader<'a> {
     /// Bytes of the document (with its GLB chunk).
     input_len: usize,
     /// The caller's cap on the placed mesh.
-    max_mesh_bytes: u64,
-    buffers: Vec<Option<Vec<u8>>>,
+    limit: SizeLimit,
+    /// Each buffer's bytes (a resource's may be longer than the buffer).
+    buffers: Vec<Option<Rc<[u8]>>>,
+    /// The most bytes any buffer reads of each external resource, and
+    /// what was read: a resource is read once, however many buffers name
+    /// it (forty buffers naming one 64 MiB file were 2.6 GB).
+    resource_lengths: HashMap<ResourcePath, usize>,
+    resources_read: HashMap<ResourcePath, Rc<[u8]>>,
     blob: Option<&'a [u8]>,
     resources: &'a dyn ResourceResolver,
     meshes: HashMap<usize, LocalMesh>,
@@ -207,11 +297,8 @@ impl Loader<'_> {
             let m = &self.meshes[&mesh.index()];
             self.placed_vertices += m.positions.len();
             self.placed_triangles += m.triangles.len();
-            check_size(
-                self.placed_vertices,
-                self.placed_triangles,
-                self.max_mesh_bytes,
-            )?;
+            self.limit
+                .check(self.placed_vertices, self.placed_triangles)?;
             self.placements.push((world, mesh.index()));
         }
         for child in node.children() {
@@ -220,7 +307,7 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// Copies every placed mesh into world space, after [`check_size`]
+    /// Copies every placed mesh into world space, after [`SizeLimit::check`]
     /// accepted their total.
     fn place_all(&mut self) {
         self.positions.reserve_exact(self.placed_vertices);
@@ -275,10 +362,9 @@ impl Loader<'_> {
                     format!("index {bad} is past the {} positions", positions.len()),
                 ));
             }
-            check_size(
+            self.limit.check(
                 out.positions.len() + positions.len(),
                 out.triangles.len() + indices.len() / 3,
-                self.max_mesh_bytes,
             )?;
             let base = out.positions.len() as u32;
             out.positions.extend_from_slice(&positions);
@@ -289,20 +375,6 @@ impl Loader<'_> {
         }
         Ok(out)
     }
-}
-
-/// Fails when the placed meshes would pass the loaders' size limits.
-fn check_size(vertices: usize, triangles: usize, max_bytes: u64) -> Result<()> {
-    let bytes = 12 * (vertices as u64 + triangles as u64);
-    if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES || bytes > max_bytes {
-        return Err(Error::MeshTooLarge {
-            limit: MAX_VERTICES as u64,
-            vertices: vertices as u64,
-            triangles: triangles as u64,
-            max_bytes: max_bytes.min(12 * (MAX_VERTICES + MAX_TRIANGLES) as u64),
-        });
-    }
-    Ok(())
 }
 
 /// Triangles from a primitive's index list.

@@ -47,18 +47,18 @@ fn node_transforms_compose() {
 #[test]
 fn external_buffers_come_from_the_resolver() {
     let doc = tiny_gltf("tri.bin");
-    let e = parse(doc.as_bytes(), &NoResources, u64::MAX).unwrap_err();
+    let e = parse(doc.as_bytes(), &NoResources, SizeLimit::new(u64::MAX)).unwrap_err();
     assert!(
         matches!(&e, Error::MissingResource { uri } if uri == "tri.bin"),
         "{e}"
     );
     let resolver = |uri: &str| (uri == "tri.bin").then(tiny_buffer);
-    let m = parse(doc.as_bytes(), &resolver, u64::MAX).unwrap();
+    let m = parse(doc.as_bytes(), &resolver, SizeLimit::new(u64::MAX)).unwrap();
     assert_eq!(m.triangles().len(), 1);
     // A short external buffer is reported, not read past.
     let short = |_: &str| Some(tiny_buffer()[..20].to_vec());
     assert!(matches!(
-        parse(doc.as_bytes(), &short, u64::MAX),
+        parse(doc.as_bytes(), &short, SizeLimit::new(u64::MAX)),
         Err(Error::Malformed { .. })
     ));
 }

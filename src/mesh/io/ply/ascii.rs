@@ -130,7 +130,7 @@ pub(super) fn ascii_element(
         }
         match role {
             Role::Vertex(_) => out.positions.push(p),
-            Role::Face(_) => out.end_face(),
+            Role::Face(_) => out.end_face()?,
             Role::Skip => {}
         }
     }

@@ -112,7 +112,7 @@ pub(super) fn binary_element(
         }
         match role {
             Role::Vertex(_) => out.positions.push(p),
-            Role::Face(_) => out.end_face(),
+            Role::Face(_) => out.end_face()?,
             Role::Skip => {}
         }
     }

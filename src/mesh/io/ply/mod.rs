@@ -10,6 +10,7 @@
 
 use crate::error::{Error, Format, Result};
 use crate::mesh::TriMesh;
+use crate::mesh::io::SizeLimit;
 use ascii::{Lines, ascii_element};
 use binary::{Reader, binary_element};
 use header::{Element, Encoding, Kind, Property, Scalar, parse_header};
@@ -20,15 +21,23 @@ mod header;
 #[cfg(test)]
 mod tests;
 
-pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {
+pub(super) fn parse(bytes: &[u8], limit: SizeLimit) -> Result<TriMesh> {
     let header = parse_header(bytes)?;
     let plan = Plan::new(&header.elements)?;
     let data = bytes.get(header.data_start..).unwrap_or_default();
+    // Checked before anything is allocated; the triangles as they come,
+    // since a face's corner count is known only when it is read.
+    // A vertex takes at least 3 bytes (x, y, z as chars): a lying count is
+    // left for the reader to report as a truncated file.
+    let vertices = capacity(u64::from(plan.vertex_count), data.len(), 3);
+    limit.check(vertices, 0)?;
     let mut out = Output {
         positions: Vec::new(),
         triangles: Vec::new(),
         corners: Vec::new(),
         vertex_count: plan.vertex_count,
+        max_triangles: limit.triangles_beside(vertices),
+        limit,
     };
     match header.encoding {
         Encoding::Ascii => {
@@ -177,6 +186,9 @@ struct Output {
     /// Scratch for the current face's corners.
     corners: Vec<u32>,
     vertex_count: u32,
+    /// The most triangles the size limit leaves beside the vertices.
+    max_triangles: usize,
+    limit: SizeLimit,
 }
 
 impl Output {
@@ -198,7 +210,13 @@ impl Output {
     }
 
     /// Adds the current face as a fan; fewer than 3 corners add nothing.
-    fn end_face(&mut self) {
+    fn end_face(&mut self) -> Result<()> {
+        let adds = self.corners.len().saturating_sub(2);
+        if self.triangles.len() + adds > self.max_triangles {
+            return self
+                .limit
+                .check(self.vertex_count as usize, self.triangles.len() + adds);
+        }
         if let Some((&first, rest)) = self.corners.split_first() {
             for pair in rest.windows(2) {
                 if let [b, c] = *pair {
@@ -207,6 +225,7 @@ impl Output {
             }
         }
         self.corners.clear();
+        Ok(())
     }
 }
 
@@ -241,11 +260,9 @@ fn integer(word: &[u8]) -> Option<i64> {
     text(word)?.parse().ok()
 }
 
-/// A word for a message, cut short if it is long garbage.
-fn show(word: &[u8]) -> String {
-    const MAX: usize = 32;
-    let text = String::from_utf8_lossy(word.get(..MAX).unwrap_or(word)).into_owned();
-    if word.len() > MAX { text + "..." } else { text }
+/// A word for a message: escaped, and cut short if it is long garbage.
+fn show(word: &[u8]) -> crate::error::FileText {
+    crate::error::FileText::word(word)
 }
 
 fn malformed(location: impl Into<String>, message: impl Into<String>) -> Error {

@@ -1,5 +1,9 @@
 use super::*;
 
+fn parse(bytes: &[u8]) -> Result<TriMesh> {
+    super::parse(bytes, SizeLimit::new(u64::MAX))
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Out {
     Ascii,
