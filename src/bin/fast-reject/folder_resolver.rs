@@ -44,12 +44,15 @@ impl ResourceResolver for FolderResolver {
             )));
         }
         let refused = |e: std::io::Error| ResourceError::Refused(format!("cannot read it: {e}"));
-        let file = File::open(&real).map_err(refused)?;
+        // Checked before it is opened: opening a named pipe for reading
+        // blocks until a writer comes, which may be never.
+        if !std::fs::metadata(&real).map_err(refused)?.is_file() {
+            return Err(not_a_file());
+        }
+        let file = open_without_blocking(&real).map_err(refused)?;
         // Checked on the open file, so that what is read is what was checked.
         if !file.metadata().map_err(refused)?.is_file() {
-            return Err(ResourceError::Refused(
-                "it is not a regular file (a folder, a device or a pipe)".into(),
-            ));
+            return Err(not_a_file());
         }
         let mut bytes = Vec::new();
         file.take(max_len as u64)
@@ -57,4 +60,21 @@ impl ResourceResolver for FolderResolver {
             .map_err(refused)?;
         Ok(bytes)
     }
+}
+
+fn not_a_file() -> ResourceError {
+    ResourceError::Refused("it is not a regular file (a folder, a device or a pipe)".into())
+}
+
+/// Opens `path` for reading; on Unix without waiting for a writer, should
+/// it have become a named pipe since it was checked.
+fn open_without_blocking(path: &Path) -> std::io::Result<File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    options.open(path)
 }

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use fast_reject::Format;
+use fast_reject::error::FileText;
 use fast_reject::exec::Backend;
 use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
@@ -39,6 +40,8 @@ enum Command {
 }
 
 #[derive(clap::Args)]
+// "--group-radius -1" is a value to check, not an unknown flag "-1".
+#[command(allow_negative_numbers = true)]
 struct MatchArgs {
     /// The scene: .glb, .gltf, .obj, .ply or .stl.
     scene: PathBuf,
@@ -52,8 +55,9 @@ struct MatchArgs {
     scene_options: SceneOptions,
     /// Memory budget in MiB for the scene and the search: what would need
     /// more is refused before it is allocated.
-    #[arg(long, value_name = "MIB", default_value_t = SceneOptions::DEFAULT.memory_budget >> 20)]
-    memory_budget: u64,
+    /// [default: 2048, or less where the machine or `ulimit -v` has less]
+    #[arg(long, value_name = "MIB")]
+    memory_budget: Option<u64>,
     /// Worker threads (1 runs the serial backend; default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -71,7 +75,15 @@ struct MatchArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Usage errors, --help and --version exit as clap says (2 for usage);
+    // printing them may fail on a closed pipe, which is no reason to panic.
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
     let result = match cli.command {
         Command::Match(args) => run_match(*args),
         Command::Demo { json } => run_demo(json),
@@ -79,7 +91,9 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
-            eprintln!("error: {message}");
+            use std::io::Write;
+            // Nothing is left to tell if standard error is closed too.
+            let _ = writeln!(std::io::stderr(), "error: {message}");
             ExitCode::FAILURE
         }
     }
@@ -132,7 +146,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     let mut options = args.options;
     options.backend = backend;
     let mut scene_options = args.scene_options;
-    scene_options.memory_budget = args.memory_budget.saturating_mul(1 << 20);
+    scene_options.memory_budget = memory_budget(args.memory_budget)?;
     scene_options.backend = backend;
     let gpu = gpu_for(args.backend)?;
     let job = || -> Result<MatchReport, String> {
@@ -144,7 +158,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
             (None, None) => unreachable!("clap requires one of them"),
         };
         let scene = Scene::new(scene_mesh, &scene_options)
-            .map_err(|e| format!("scene '{}': {}", args.scene.display(), described(&e)))?;
+            .map_err(|e| format!("scene '{}': {}", shown(&args.scene), described(&e)))?;
         let load = start.elapsed().as_secs_f64() * 1e3;
         let mut report = match &gpu {
             Some(gpu) => search_on_gpu(&scene, &source, &options, &mut (), gpu),
@@ -170,6 +184,67 @@ fn described(error: &fast_reject::Error) -> String {
     error.describe_with(|name| format!("--{}", name.replace(' ', "-")))
 }
 
+/// The budget in bytes for `--memory-budget MIB`: a budget is a promise
+/// that what passes it can be allocated, so it may not exceed what this
+/// process can have (the machine's memory, or its address-space limit
+/// less what the program itself takes). An allocation past that would
+/// abort.
+fn memory_budget(mib: Option<u64>) -> Result<u64, String> {
+    let ceiling = memory_ceiling();
+    let Some(mib) = mib else {
+        // The default says "what is reasonable": no more than there is.
+        let default = SceneOptions::DEFAULT.memory_budget;
+        return Ok(ceiling.map_or(default, |(c, _)| default.min(c)));
+    };
+    let asked = mib.saturating_mul(1 << 20);
+    let Some((ceiling, why)) = ceiling else {
+        return Ok(asked);
+    };
+    if asked <= ceiling {
+        return Ok(asked);
+    }
+    Err(format!(
+        "--memory-budget {mib} is more than this process can have ({why}): give at most {}",
+        ceiling >> 20
+    ))
+}
+
+/// Address space the program takes besides what a budget counts: its code,
+/// the threads' stacks, the allocator's arenas (measured: a search's peak
+/// address space is its largest allocations plus 90-170 MiB).
+const ADDRESS_SPACE_RESERVE: u64 = 160 << 20;
+
+/// The most memory this process can be given, and why, where the system
+/// says (Linux: the machine's memory and `ulimit -v`).
+fn memory_ceiling() -> Option<(u64, String)> {
+    let field = |text: &str, key: &str| -> Option<u64> {
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        line[key.len()..].split_whitespace().next()?.parse().ok()
+    };
+    let machine = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| field(&t, "MemTotal:"))
+        .map(|kib| kib.saturating_mul(1024));
+    // "unlimited" does not parse: no limit.
+    let address_space = std::fs::read_to_string("/proc/self/limits")
+        .ok()
+        .and_then(|t| field(&t, "Max address space"))
+        .map(|bytes| bytes - (bytes / 8).max(ADDRESS_SPACE_RESERVE).min(bytes / 2));
+    let mib = |b: u64| b >> 20;
+    match (machine, address_space) {
+        (Some(m), Some(a)) if a < m => Some((
+            a,
+            format!("its address-space limit, ulimit -v, leaves {} MiB", mib(a)),
+        )),
+        (Some(m), _) => Some((m, format!("the machine has {} MiB of memory", mib(m)))),
+        (None, Some(a)) => Some((
+            a,
+            format!("its address-space limit, ulimit -v, leaves {} MiB", mib(a)),
+        )),
+        (None, None) => None,
+    }
+}
+
 /// The embedded demo: a few rotated mugs among other objects.
 const DEMO_SCENE: &[u8] = include_bytes!("../../../assets/demo/scene.glb");
 const DEMO_TEMPLATE: &[u8] = include_bytes!("../../../assets/demo/template.glb");
@@ -191,9 +266,9 @@ fn run_demo(json: bool) -> Result<(), String> {
     .map_err(|e| e.to_string())?;
     report.timings.load = load;
     if !json {
-        println!(
-            "Demo: searching the embedded scene (mugs among other objects) for the embedded mug.\n"
-        );
+        write_out(
+            "Demo: searching the embedded scene (mugs among other objects) for the embedded mug.\n",
+        )?;
     }
     print_report(&report, json, DescriptorKind::default())
 }
@@ -203,7 +278,8 @@ fn parse_select(s: &str) -> Result<TemplateSource, String> {
     let values: Vec<f64> = parts.iter().filter_map(|p| p.parse().ok()).collect();
     if parts.len() != 4 || values.len() != 4 {
         return Err(format!(
-            "--select takes four numbers X,Y,Z,R (sphere centre and radius), got '{s}'"
+            "--select takes four numbers X,Y,Z,R (sphere centre and radius), got '{}'",
+            FileText::new(s)
         ));
     }
     Ok(TemplateSource::Selection {
@@ -214,8 +290,7 @@ fn parse_select(s: &str) -> Result<TemplateSource, String> {
 
 /// Reads and parses a mesh file; `.gltf` files may refer to buffers beside them.
 fn load_file(path: &Path) -> Result<TriMesh, String> {
-    let bytes =
-        std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", shown(path)))?;
     // The content first: a .glb saved as .obj is still a glTF. The
     // extension names the parser whose error a user sees when the content
     // is not recognized.
@@ -225,8 +300,15 @@ fn load_file(path: &Path) -> Result<TriMesh, String> {
             .and_then(Format::from_extension)
     });
     let resolver = FolderResolver::beside(path)
-        .map_err(|e| format!("cannot find the folder of '{}': {e}", path.display()))?;
-    load_with_resources(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", path.display()))
+        .map_err(|e| format!("cannot find the folder of '{}': {e}", shown(path)))?;
+    load_with_resources(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", shown(path)))
+}
+
+/// A path for a message: a file's name is anyone's text (a downloaded
+/// model's name can hold escape sequences), so it is escaped like a file's
+/// content.
+fn shown(path: &Path) -> FileText {
+    FileText::new(&path.to_string_lossy())
 }
 
 fn print_report(
@@ -234,11 +316,27 @@ fn print_report(
     json: bool,
     descriptor: DescriptorKind,
 ) -> Result<(), String> {
-    if json {
-        let text = serde_json::to_string(report).map_err(|e| e.to_string())?;
-        println!("{text}");
+    let text = if json {
+        serde_json::to_string(report).map_err(|e| e.to_string())?
     } else {
-        println!("descriptor: {descriptor}\n{}", table::Table(report));
-    }
-    Ok(())
+        format!("descriptor: {descriptor}\n{}", table::Table(report))
+    };
+    write_out(&text)
+}
+
+/// Writes `text` and a newline to standard output. A closed pipe (`| head`)
+/// or a full disk is an error to report, not a panic as in `println!`: the
+/// report did not reach its reader.
+fn write_out(text: &str) -> Result<(), String> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush())
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::BrokenPipe => {
+                "cannot write the report: standard output was closed before it was written (a pipe's reader exited)".to_string()
+            }
+            _ => format!("cannot write the report to standard output: {e}"),
+        })
 }
