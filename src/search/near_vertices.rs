@@ -100,6 +100,20 @@ impl NearVertices {
         8 * self.cells.words().len() as u64
     }
 
+    /// The set cells' boxes: where the points [`NearVertices::any_in`]
+    /// accepts lie.
+    pub(super) fn cells(&self) -> impl Iterator<Item = Aabb> + '_ {
+        let spec = *self.cells.spec();
+        self.cells.iter_ones().map(move |[x, y, z]| {
+            let min =
+                spec.origin + Vec3::new(f64::from(x), f64::from(y), f64::from(z)) * spec.voxel_size;
+            Aabb {
+                min,
+                max: min + Vec3::splat(spec.voxel_size),
+            }
+        })
+    }
+
     /// Whether `p` may lie within reach of a vertex (a set cell); points
     /// outside the part's box are never near.
     pub(super) fn near(&self, p: Vec3) -> bool {

@@ -385,7 +385,7 @@ impl PartSearch<'_> {
             self.vertex_reach,
             backend,
         );
-        let Some(windows) = part_windows(scene, part, self.lattice, reach) else {
+        let Some(windows) = part_windows(scene, part, self.lattice, reach, near.as_ref())? else {
             let fresh;
             let voxels = match template.voxels_of_part(index) {
                 Some(voxels) => voxels,
@@ -926,7 +926,16 @@ fn check_part_volume(
             }
         })
         .sum();
-    let limit = f64::from(MAX_PART_VOLUME_FACTOR) * lattice.spec.voxel_count() as f64;
+    // Against the scene's box padded as a part's is: a flat scene (tiles
+    // on a floor) has a flat grid, and every part's padding alone passed
+    // it many times over.
+    let scene_extent = scene.mesh().bounds().extent();
+    let padded_scene: f64 = [scene_extent.x, scene_extent.y, scene_extent.z]
+        .iter()
+        .map(|e| e / voxel + 2.0 * reach + 3.0)
+        .product();
+    let limit =
+        f64::from(MAX_PART_VOLUME_FACTOR) * padded_scene.max(lattice.spec.voxel_count() as f64);
     if voxels <= limit {
         return Ok(());
     }

@@ -9,7 +9,9 @@
 //! whole part's grid would give. A copy whose points fall in two cores is
 //! found in both; the search merges such finds.
 
+use super::near_vertices::NearVertices;
 use crate::budget::voxel_bytes;
+use crate::error::{Error, MemoryEstimate, Result};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Scene, ScenePart};
 use crate::voxel::GridSpec;
@@ -91,14 +93,21 @@ impl Window {
 /// The windows that `part` is searched in, each at most
 /// [`Scene::window_bytes`], or `None` when it fits one grid
 /// ([`Scene::fits_one_grid`]).
+///
+/// A part thousands of times the template's size has millions of windows
+/// on the template's lattice: then only those within reach of a vertex
+/// (`near`) are listed, since no copy can be anchored in the others, and
+/// a list that would still pass its share of the memory budget is refused
+/// before it is built.
 pub(super) fn part_windows(
     scene: &Scene,
     part: &ScenePart,
     lattice: &Lattice,
     reach: f64,
-) -> Option<Vec<Window>> {
+    near: Option<&NearVertices>,
+) -> Result<Option<Vec<Window>>> {
     if scene.fits_one_grid(part, lattice, reach) {
-        return None;
+        return Ok(None);
     }
     let limit = scene.window_bytes();
     let spec = &lattice.spec;
@@ -133,21 +142,97 @@ pub(super) fn part_windows(
         }
     }
     let side = core(&count);
-    let mut windows = Vec::new();
-    for k in 0..count[2] {
-        for j in 0..count[1] {
-            for i in 0..count[0] {
-                let at = [i, j, k];
-                let first = [0, 1, 2].map(|a| lo[a] + (at[a] * side[a]) as i64);
-                let last = [0, 1, 2].map(|a| (first[a] + side[a] as i64).min(hi[a]));
-                if (0..3).any(|a| last[a] <= first[a]) {
-                    continue;
+    let window = |at: [usize; 3]| {
+        let first = [0, 1, 2].map(|a| lo[a] + (at[a] * side[a]) as i64);
+        let last = [0, 1, 2].map(|a| (first[a] + side[a] as i64).min(hi[a]));
+        (0..3)
+            .all(|a| first[a] < last[a])
+            .then(|| Window::new(spec, first, last, pad))
+    };
+    let most = max_listed(scene.memory_budget());
+    let all = count.iter().map(|&c| c as f64).product::<f64>();
+    if all <= most as f64 {
+        let mut windows = Vec::new();
+        for k in 0..count[2] {
+            for j in 0..count[1] {
+                for i in 0..count[0] {
+                    windows.extend(window([i, j, k]));
                 }
-                windows.push(Window::new(spec, first, last, pad));
             }
         }
+        return Ok(Some(windows));
     }
-    Some(windows)
+    // Too many to list: those whose core may hold a vertex's surroundings,
+    // found from the vertex cells (a superset of the windows the search
+    // keeps, in the same order).
+    let Some(near) = near else {
+        return Err(too_many_windows(scene, part, lattice, all, most));
+    };
+    let mut listed = std::collections::BTreeSet::new();
+    for cell in near.cells() {
+        let (a, b) = (spec.to_grid(cell.min), spec.to_grid(cell.max));
+        let range = [0, 1, 2].map(|x| {
+            let index = |v: f64| (v.floor() as i64 - lo[x]).max(0) as usize / side[x];
+            (
+                index(a[x] - 1.0).min(count[x] - 1),
+                index(b[x] + 1.0).min(count[x] - 1),
+            )
+        });
+        for k in range[2].0..=range[2].1 {
+            for j in range[1].0..=range[1].1 {
+                for i in range[0].0..=range[0].1 {
+                    listed.insert([k, j, i]);
+                }
+            }
+        }
+        if listed.len() > most {
+            return Err(too_many_windows(
+                scene,
+                part,
+                lattice,
+                listed.len() as f64,
+                most,
+            ));
+        }
+    }
+    Ok(Some(
+        listed
+            .into_iter()
+            .filter_map(|[k, j, i]| window([i, j, k]))
+            .collect(),
+    ))
+}
+
+/// Windows a list may hold: a sixteenth of the memory budget.
+fn max_listed(budget: u64) -> usize {
+    let per_window = (std::mem::size_of::<Window>() + 32) as u64;
+    usize::try_from(budget / 16 / per_window).unwrap_or(usize::MAX)
+}
+
+/// The refusal for a part that needs more windows than a list may hold.
+fn too_many_windows(
+    scene: &Scene,
+    part: &ScenePart,
+    lattice: &Lattice,
+    windows: f64,
+    most: usize,
+) -> Error {
+    let per_window = (std::mem::size_of::<Window>() + 32) as u64;
+    let mut estimate = MemoryEstimate::new();
+    estimate.add(
+        "the list of a large part's windows",
+        (windows * per_window as f64).min(u64::MAX as f64) as u64,
+    );
+    let extent = part.bounds().extent().max_element();
+    Error::OverBudget {
+        estimate,
+        budget: scene.memory_budget(),
+        advice: format!(
+            "a part {} across is {:.0} voxels wide at the template's voxel size and needs {windows:.3e} windows, over the {most} a list may hold: the template is tiny next to it; lower --template-voxels, search a region of the scene (a selection), or raise the memory budget",
+            crate::error::length(extent),
+            extent / lattice.spec.voxel_size,
+        ),
+    }
 }
 
 #[cfg(test)]
@@ -164,7 +249,9 @@ mod tests {
         let lattice = scene.lattice_for(0.1, 32.0).unwrap();
         let part = &scene.parts(Parts::Components)[0];
         let reach = 0.1 / lattice.spec.voxel_size;
-        let windows = part_windows(&scene, part, &lattice, reach).expect("windows");
+        let windows = part_windows(&scene, part, &lattice, reach, None)
+            .unwrap()
+            .expect("windows");
         assert!(windows.len() > 1);
         let limit = scene.window_bytes();
         let mut covered = 0.0;
@@ -196,6 +283,10 @@ mod tests {
             Scene::new(cuboid(Vec3::ZERO, Vec3::splat(1.0)), &SceneOptions::DEFAULT).unwrap();
         let lattice = small.lattice_for(0.1, 32.0).unwrap();
         let part = &small.parts(Parts::Components)[0];
-        assert!(part_windows(&small, part, &lattice, 32.0).is_none());
+        assert!(
+            part_windows(&small, part, &lattice, 32.0, None)
+                .unwrap()
+                .is_none()
+        );
     }
 }
