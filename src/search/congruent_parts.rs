@@ -9,7 +9,7 @@
 //! (within float rounding) takes that part's instances, moved. A part of
 //! the same shape meshed differently is searched on its own, as before.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::hash::Hasher;
 
 use crate::align::Rigid;
@@ -177,6 +177,51 @@ impl Original {
     }
 }
 
+/// The searched parts that share a triangle list, by spread: a part is
+/// compared only with those whose spread could match its own, a range in
+/// this order (comparing with every one was quadratic: 100 000 small parts
+/// of one topology and as many sizes took minutes).
+#[derive(Default)]
+struct SamePattern {
+    /// Keyed by the spread's bits (spreads are finite and not negative, so
+    /// their bits sort as they do) and the part.
+    by_spread: BTreeMap<(u64, usize), Original>,
+    /// The largest coordinate's magnitude among them.
+    magnitude: f64,
+}
+
+impl SamePattern {
+    /// Those whose spread is close to `local`'s, earliest part first.
+    fn close_to(&self, local: &Local) -> Vec<&Original> {
+        // The tolerance grows with the larger spread and magnitude: with the
+        // largest magnitude here, it bounds the range every close spread
+        // lies in.
+        let rounding = tolerance(0.0, self.magnitude.max(local.magnitude));
+        let low = local.spread * (1.0 - TOLERANCE) - rounding;
+        let high = (local.spread + rounding) / (1.0 - TOLERANCE);
+        let key = |spread: f64| if spread > 0.0 { spread.to_bits() } else { 0 };
+        let mut close: Vec<&Original> = self
+            .by_spread
+            .range((key(low), 0)..=(key(high), usize::MAX))
+            .map(|(_, original)| original)
+            .filter(|original| original.spread_close(local))
+            .collect();
+        close.sort_by_key(|original| original.part);
+        close
+    }
+
+    fn push(&mut self, original: Original) {
+        self.magnitude = self.magnitude.max(original.magnitude);
+        self.by_spread
+            .insert((original.spread.to_bits(), original.part), original);
+    }
+
+    /// Bytes their kept numberings hold.
+    fn kept_bytes(&self) -> usize {
+        self.by_spread.values().map(Original::kept_bytes).sum()
+    }
+}
+
 /// The originals' numberings kept at once, at most, per triangle of the
 /// mesh: as much again as the mesh's triangle list, so that a scene of
 /// many distinct parts does not hold a second copy of itself.
@@ -220,7 +265,7 @@ fn congruent_parts_keeping(
         .collect();
     // Searched parts by their triangles in local indices (a hash of them:
     // equal lists are checked when the hashes meet).
-    let mut originals: HashMap<(usize, usize, u64), Vec<Original>> = HashMap::new();
+    let mut originals: HashMap<(usize, usize, u64), SamePattern> = HashMap::new();
     let mut kept_bytes = 0;
     let mut rest = shared.as_slice();
     while !rest.is_empty() {
@@ -237,10 +282,7 @@ fn congruent_parts_keeping(
             let length = pattern.len();
             let key = (length, local.vertices.len(), pattern_hash(&pattern));
             let same_pattern = originals.entry(key).or_default();
-            copies[i] = same_pattern.iter().find_map(|original| {
-                if !original.spread_close(&local) {
-                    return None;
-                }
+            copies[i] = same_pattern.close_to(&local).into_iter().find_map(|original| {
                 let read_again;
                 let (there, their_pattern) = match &original.kept {
                     Some((there, their_pattern)) => (there, their_pattern),
@@ -276,7 +318,7 @@ fn congruent_parts_keeping(
                 // No later part can copy one of this many triangles.
                 originals.retain(|&(other, ..), kept| {
                     if other == length {
-                        kept_bytes -= kept.iter().map(Original::kept_bytes).sum::<usize>();
+                        kept_bytes -= kept.kept_bytes();
                     }
                     other != length
                 });
