@@ -212,3 +212,39 @@ fn the_option_defaults_are_accepted_as_options() {
     let report = scene.run_match(&template, match_defaults, None).unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }
+
+#[wasm_bindgen_test]
+fn options_that_throw_while_read_are_an_error_and_the_scene_stays_usable() {
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
+    // A Proxy's trap that throws, while the binding reads the options: an
+    // exception through the binding's frames would leave the scene
+    // borrowed for good (every later call "recursive use of an object").
+    let proxy = Function::new_with_args(
+        "trap",
+        "return new Proxy({ groupRadius: 1 }, { [trap]() { throw new Error('no'); } });",
+    );
+    for trap in ["ownKeys", "getOwnPropertyDescriptor", "get"] {
+        let options = proxy.call1(&JsValue::NULL, &trap.into()).unwrap();
+        let e = message(scene.run_match(&template, options, None).unwrap_err());
+        assert!(e.contains("cannot read"), "{trap}: {e}");
+    }
+    let revoked = Function::new_no_args(
+        "const { proxy, revoke } = Proxy.revocable({}, {}); revoke(); return proxy;",
+    )
+    .call0(&JsValue::NULL)
+    .unwrap();
+    let e = message(scene.run_match(&template, revoked, None).unwrap_err());
+    assert!(e.contains("must be an object"), "{e}");
+    // The caller's key is quoted escaped, never as a control character.
+    let e = message(
+        scene
+            .run_match(&template, js(r#"{"k\u001b[2J": 1}"#), None)
+            .unwrap_err(),
+    );
+    assert!(e.contains(r"'k\u{1b}[2J'") && !e.contains('\u{1b}'), "{e}");
+    let report = scene
+        .run_match(&template, JsValue::UNDEFINED, None)
+        .unwrap();
+    assert!(get(&report, "instances").is_instance_of::<Array>());
+}

@@ -159,7 +159,7 @@ export class CancelledError extends Error {
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
 declare abstract class Handle {
-  /** Releases the wasm memory now; the handle cannot be used afterwards. */
+  /** Releases the wasm memory now (or when a search using the handle, a pending `matchGpu`, ends); the handle cannot be used afterwards. */
   free(): void;
 }
 

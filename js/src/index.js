@@ -6,7 +6,7 @@
 // arguments, and cannot use a handle after `free()`. Both builds can also
 // run the cascade's layers on WebGPU (`Scene.matchGpu`).
 
-import { CancelledError } from './errors.js';
+import { CancelledError, describe, plainOptions } from './errors.js';
 
 export { CancelledError };
 
@@ -46,7 +46,7 @@ export function init(options = {}) {
 
 async function instantiate({ build = 'auto', threads } = {}) {
   if (!['auto', 'plain', 'threads'].includes(build)) {
-    throw new Error(`fast-reject: build must be 'auto', 'plain' or 'threads', got ${String(build)}`);
+    throw new TypeError(`fast-reject: build must be 'auto', 'plain' or 'threads', got ${describe(build)}`);
   }
   const threaded = build === 'threads' || (build === 'auto' && threadsSupported());
   if (threaded && !threadsSupported()) {
@@ -127,16 +127,17 @@ function trapped(glue, error) {
 
 /**
  * Refuses a file that could not be copied into the module and parsed there:
- * the copy needs its size, and a parsed mesh can take up to three times a
- * text file's size while it grows. A failed allocation would trap the
- * module, so the check comes first.
+ * the module says how much loading it may hold at once, from its length
+ * and first bytes (a binary PLY's mesh can take twelve times the file). A
+ * failed allocation would trap the module, so the check comes first.
  */
 function checkFits(glue, data, what) {
   const free = glue.freeBytes();
-  if (data.byteLength * 4 > free) {
+  const peak = glue.peakLoadBytes(data.subarray(0, 512), data.byteLength);
+  if (peak > free) {
     const mib = (n) => `${Math.round(n / 2 ** 20)} MiB`;
     throw new Error(
-      `fast-reject: the ${what} (${mib(data.byteLength)}) does not fit in the module's free memory (${mib(free)}; a file may take a quarter of it): free other scenes and templates, or use a smaller file`,
+      `fast-reject: the ${what} (${mib(data.byteLength)}) does not fit in the module's free memory: loading it may take ${mib(peak)}, and ${mib(free)} are free: free other scenes and templates, or use a smaller file`,
     );
   }
 }
@@ -149,6 +150,26 @@ function asBytes(bytes, what) {
   }
   if (ArrayBuffer.isView(bytes)) return new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
   throw new TypeError(`fast-reject: the ${what} must be a Uint8Array or an ArrayBuffer, got ${typeof bytes}`);
+}
+
+/**
+ * Handles that searches use now: handle -> `{ uses, freeLater }`, the wasm
+ * object to free once the last of them ends if `free()` was called meanwhile.
+ */
+const inUse = new WeakMap();
+
+function hold(handle) {
+  const use = inUse.get(handle) ?? { uses: 0, freeLater: null };
+  use.uses += 1;
+  inUse.set(handle, use);
+}
+
+function release(handle) {
+  const use = inUse.get(handle);
+  use.uses -= 1;
+  if (use.uses > 0) return;
+  inUse.delete(handle);
+  if (use.freeLater) freeInner(use.freeLater);
 }
 
 class Handle {
@@ -165,26 +186,62 @@ class Handle {
   }
   /**
    * Releases the wasm memory now (it is not garbage-collected in time
-   * otherwise). Never throws once the module trapped: the call that trapped
-   * left its handles marked as borrowed inside the module, so wasm-bindgen's
-   * free() would throw "attempted to take ownership of Rust value while it
-   * was borrowed", and in a `finally` that error would replace the one that
-   * says what happened.
+   * otherwise); the handle cannot be used afterwards. While a search uses
+   * it (a pending `matchGpu`, or `free()` from a progress callback) the
+   * module holds it borrowed and would refuse, so the memory is released
+   * when that search ends.
    */
   free() {
     const inner = this.#inner;
     if (!inner) return;
-    if (loaded?.broken) {
-      this.#inner = null;
-      // Detaches the JS object without calling in, and unregisters its
-      // finalizer, which would call into the broken module later; the
-      // memory goes with the module.
-      inner.__destroy_into_raw?.();
-      return;
-    }
-    inner.free();
     this.#inner = null;
+    const use = inUse.get(this);
+    if (use) use.freeLater = inner;
+    else freeInner(inner);
   }
+}
+
+/**
+ * Frees a wasm object. Never throws once the module trapped: the call that
+ * trapped left its handles marked as borrowed inside the module, so
+ * wasm-bindgen's free() would throw "attempted to take ownership of Rust
+ * value while it was borrowed", and in a `finally` that error would replace
+ * the one that says what happened.
+ */
+function freeInner(inner) {
+  if (loaded?.broken) {
+    // Detaches the JS object without calling in, and unregisters its
+    // finalizer, which would call into the broken module later; the
+    // memory goes with the module.
+    inner.__destroy_into_raw?.();
+    return;
+  }
+  inner.free();
+}
+
+/**
+ * Runs `search(scene, template)` on the wasm objects of two handles, holding
+ * both until it ends (a Promise settles).
+ */
+function searching(sceneHandle, templateHandle, search) {
+  const scene = sceneHandle.inner;
+  const template = templateHandle.inner;
+  hold(sceneHandle);
+  hold(templateHandle);
+  const done = () => {
+    release(templateHandle);
+    release(sceneHandle);
+  };
+  let result;
+  try {
+    result = search(scene, template);
+  } catch (error) {
+    done();
+    throw error;
+  }
+  if (result instanceof Promise) return result.finally(done);
+  done();
+  return result;
 }
 
 /** A voxelized scene, searched any number of times. */
@@ -192,10 +249,11 @@ export class Scene extends Handle {
   /** Options are checked in the module, against the core's schema. */
   static fromBytes(bytes, options) {
     const data = asBytes(bytes, 'scene');
+    const settings = plainOptions(options, 'scene');
     return new Scene(
       call((glue) => {
         checkFits(glue, data, 'scene');
-        return glue.Scene.fromBytes(data, options);
+        return glue.Scene.fromBytes(data, settings);
       }),
     );
   }
@@ -218,11 +276,10 @@ export class Scene extends Handle {
    */
   match(template, options = {}, onLayer) {
     checkSearch(template, onLayer, 'match');
-    const scene = this.inner;
-    const inner = template.inner;
+    const settings = plainOptions(options, 'match');
     const progress = new Progress(onLayer);
     try {
-      return call(() => scene.match(inner, options, progress.callback));
+      return searching(this, template, (scene, inner) => call(() => scene.match(inner, settings, progress.callback)));
     } catch (error) {
       throw progress.explain(error);
     }
@@ -237,11 +294,12 @@ export class Scene extends Handle {
    */
   async matchGpu(template, options = {}, onLayer, { allowSoftware = false } = {}) {
     checkSearch(template, onLayer, 'matchGpu');
-    const scene = this.inner;
-    const inner = template.inner;
+    const settings = plainOptions(options, 'match');
     const progress = new Progress(onLayer);
     try {
-      return await callAsync(() => scene.matchGpu(inner, options, progress.callback, Boolean(allowSoftware)));
+      return await searching(this, template, (scene, inner) =>
+        callAsync(() => scene.matchGpu(inner, settings, progress.callback, Boolean(allowSoftware))),
+      );
     } catch (error) {
       throw progress.explain(error);
     }
@@ -283,8 +341,7 @@ class Progress {
   explain(error) {
     if (!this.#cancelled) return error;
     if (!this.#threw) return new CancelledError();
-    const why = this.#thrown?.message ?? String(this.#thrown);
-    return new CancelledError(`fast-reject: the search was cancelled: the progress callback threw: ${why}`, {
+    return new CancelledError(`fast-reject: the search was cancelled: the progress callback threw: ${describe(this.#thrown)}`, {
       cause: this.#thrown,
     });
   }
@@ -294,10 +351,11 @@ class Progress {
 export class Template extends Handle {
   static fromBytes(bytes, options) {
     const data = asBytes(bytes, 'template');
+    const settings = plainOptions(options, 'template');
     return new Template(
       call((glue) => {
         checkFits(glue, data, 'template');
-        return glue.Template.fromBytes(data, options);
+        return glue.Template.fromBytes(data, settings);
       }),
     );
   }

@@ -5,12 +5,13 @@
 // the loaded scene between searches. A search cannot be interrupted from
 // outside while it computes, so cancelling terminates the worker and starts
 // a fresh one, which loads the same scene again before the next request.
-import { CancelledError } from './errors.js';
+import { CancelledError, describe, plainOptions, shown } from './errors.js';
 
 export { CancelledError };
 
 const isNode = typeof process !== 'undefined' && !!process.versions?.node;
 const BACKENDS = ['auto', 'cpu', 'gpu'];
+const BUILDS = ['auto', 'plain', 'threads'];
 
 /** Bytes given as Uint8Array, ArrayBuffer or any typed array, as a Uint8Array. */
 function asBytes(bytes, what) {
@@ -22,9 +23,12 @@ function asBytes(bytes, what) {
 
 /** What the worker is sent for a template: a sphere, or the file's bytes and format. */
 function templateSpec(template) {
-  return template?.center
-    ? { center: Array.from(template.center, Number), radius: Number(template.radius) }
-    : { bytes: asBytes(template?.bytes, 'template'), format: template?.format };
+  if (template?.center) return { center: Array.from(template.center, Number), radius: Number(template.radius) };
+  const { format } = template ?? {};
+  if (format !== undefined && format !== null && typeof format !== 'string') {
+    throw new TypeError(`fast-reject: the template's format must be a string, got a ${typeof format}`);
+  }
+  return { bytes: asBytes(template?.bytes, 'template'), format };
 }
 
 /** The error a worker's `{name, message}` stands for. */
@@ -57,7 +61,15 @@ export class SearchWorker {
    */
   constructor({ build = 'auto', threads, backend = 'auto' } = {}) {
     if (!BACKENDS.includes(backend)) {
-      throw new TypeError(`fast-reject: backend must be 'auto', 'cpu' or 'gpu', got ${String(backend)}`);
+      throw new TypeError(`fast-reject: backend must be 'auto', 'cpu' or 'gpu', got ${describe(backend)}`);
+    }
+    // Checked here as well as in the worker: they are sent to it, and a
+    // value that cannot be sent would fail outside any request.
+    if (!BUILDS.includes(build)) {
+      throw new TypeError(`fast-reject: build must be 'auto', 'plain' or 'threads', got ${describe(build)}`);
+    }
+    if (threads !== undefined && typeof threads !== 'number') {
+      throw new TypeError(`fast-reject: threads must be a number, got a ${typeof threads}`);
     }
     this.#options = { build, threads, backend };
     this.#start();
@@ -97,7 +109,7 @@ export class SearchWorker {
     const { id, settled } = this.#register(onLayer);
     this.#ready.then(
       () => {
-        if (this.#thread === thread && this.#pending.has(id)) thread.post({ ...message, id });
+        if (this.#thread === thread && this.#pending.has(id)) this.#send(thread, { ...message, id });
       },
       (error) => this.#settle(id, (job) => job.reject(error)),
     );
@@ -107,8 +119,26 @@ export class SearchWorker {
   /** Posts a message at once: the worker's own start (init, the scene again). */
   #post(message) {
     const { id, settled } = this.#register();
-    this.#thread.post({ ...message, id });
+    this.#send(this.#thread, { ...message, id });
     return settled;
+  }
+
+  /**
+   * Posts request `message` to `thread`. One that cannot be sent (a
+   * DataCloneError, thrown at once or, in Node, once the worker is up)
+   * rejects that request alone: nothing reached the worker, which stays
+   * as it was.
+   */
+  #send(thread, message) {
+    new Promise((resolve) => resolve(thread.post(message))).catch((error) =>
+      this.#settle(message.id, (job) =>
+        job.reject(
+          new TypeError(`fast-reject: the request cannot be sent to the search worker: ${describe(error)}`, {
+            cause: error,
+          }),
+        ),
+      ),
+    );
   }
 
   #register(onLayer) {
@@ -130,7 +160,7 @@ export class SearchWorker {
       } catch (error) {
         this.#cancel(
           new CancelledError(
-            `fast-reject: the search was cancelled: the progress callback threw: ${error?.message ?? String(error)}`,
+            `fast-reject: the search was cancelled: the progress callback threw: ${describe(error)}`,
             { cause: error },
           ),
         );
@@ -158,7 +188,7 @@ export class SearchWorker {
   #fail(why) {
     this.#thread?.terminate();
     this.#thread = null;
-    const error = new Error(`fast-reject: the search worker failed: ${why}`);
+    const error = new Error(`fast-reject: the search worker failed: ${shown(why)}`);
     const pending = [...this.#pending.values()];
     this.#pending.clear();
     for (const job of pending) job.reject(error);
@@ -189,7 +219,7 @@ export class SearchWorker {
   loadScene(bytes, options = {}) {
     let scene;
     try {
-      scene = { bytes: asBytes(bytes, 'scene').slice(), options };
+      scene = { bytes: asBytes(bytes, 'scene').slice(), options: plainOptions(options, 'scene') };
     } catch (error) {
       return Promise.reject(error);
     }
@@ -228,6 +258,7 @@ export class SearchWorker {
         throw new TypeError('fast-reject: onLayer must be a function');
       }
       spec = templateSpec(template);
+      options = plainOptions(options, 'match');
       if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
     } catch (error) {
       return Promise.reject(error);

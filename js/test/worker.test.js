@@ -13,6 +13,9 @@ const shared = new URL('../../../shared/scenes/', import.meta.url);
 const sceneBytes = await readFile(new URL('zoo-bunny/scene.glb', shared));
 const templateBytes = await readFile(new URL('zoo-bunny/template.glb', shared));
 const positions = (instances) => instances.map((i) => i.position);
+const demo = new URL('../../assets/demo/', import.meta.url);
+const demoScene = await readFile(new URL('scene.glb', demo));
+const demoTemplate = await readFile(new URL('template.glb', demo));
 
 /** The instances the calling thread's API finds, the reference. */
 async function onThisThread() {
@@ -162,5 +165,39 @@ test('the calling thread API: a cancel is a CancelledError with the thrown value
   } finally {
     template.free();
     scene.free();
+  }
+});
+
+test('options that cannot be sent to the worker reject with a TypeError naming them; the worker still searches', async () => {
+  const search = new SearchWorker({ backend: 'cpu' });
+  const names = (pattern) => (error) => error instanceof TypeError && pattern.test(error.message);
+  try {
+    await search.loadScene(demoScene);
+    // A function, a getter that throws, a Proxy whose trap throws: none may
+    // reach postMessage (a DataCloneError there was left unhandled).
+    const getter = {
+      get groupRadius() {
+        throw new Error('no radius here');
+      },
+    };
+    const proxy = new Proxy(
+      {},
+      {
+        ownKeys() {
+          throw new Error('no keys here');
+        },
+      },
+    );
+    await assert.rejects(search.match({ bytes: demoTemplate }, { groupRadius: () => 1 }), names(/groupRadius.*a function/));
+    await assert.rejects(search.match({ bytes: demoTemplate }, getter), names(/groupRadius: no radius here/));
+    await assert.rejects(search.match({ bytes: demoTemplate }, proxy), names(/match options: no keys here/));
+    await assert.rejects(search.match({ bytes: demoTemplate, format: () => 'glb' }), names(/format/));
+    await assert.rejects(search.loadScene(demoScene, { resolution: () => 64 }), names(/resolution.*a function/));
+    await assert.rejects(search.loadScene(demoScene, { [Symbol('x')]: 1, format: Symbol('glb') }), names(/format.*a symbol/));
+    assert.throws(() => new SearchWorker({ threads: () => 2 }), names(/threads/));
+    // The same worker, with the scene it had.
+    assert.equal((await search.match({ bytes: demoTemplate })).instances.length, 3);
+  } finally {
+    search.terminate();
   }
 });

@@ -23,7 +23,7 @@ use wasm_bindgen::prelude::*;
 
 use crate::cascade::LayerStats;
 use crate::clock::{now_ms, set_clock};
-use crate::error::{Error, Format};
+use crate::error::{Error, FileText, Format};
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_within};
 use crate::scene::{Parts, Scene, SceneOptions};
@@ -125,8 +125,6 @@ pub fn memory_limit() -> f64 {
     memory_limit_bytes() as f64
 }
 
-/// Bytes the heap may still grow by: the module's limit less what is live.
-/// The JS wrapper refuses input bytes that could not be copied in and
 /// Every option's default, `{ scene, match }`, in the names JavaScript
 /// uses: the one list the CLI's flags and the viewer's fields come from.
 #[wasm_bindgen(js_name = optionDefaults)]
@@ -134,10 +132,27 @@ pub fn option_defaults() -> Result<JsValue, JsError> {
     options::defaults()
 }
 
+/// Bytes the heap may still grow by: the module's limit less what is live.
+/// The JS wrapper refuses input bytes that could not be copied in and
 /// parsed within it, since a failed allocation would trap the module.
 #[wasm_bindgen(js_name = freeBytes)]
 pub fn free_bytes() -> f64 {
     memory_limit_bytes().saturating_sub(heap::live_bytes()) as f64
+}
+
+/// The largest mesh the loaders may build here (they refuse more): half
+/// of the memory budget.
+fn max_mesh_bytes() -> u64 {
+    options::memory_budget(0) / 2
+}
+
+/// The most bytes loading a file of `len` bytes that starts with `head`
+/// (its first 512 bytes, or all of a shorter file) may hold at once, its
+/// copy in the module included. The JS wrapper refuses a file over what is
+/// free before it is copied in: a failed allocation would trap the module.
+#[wasm_bindgen(js_name = peakLoadBytes)]
+pub fn peak_load_bytes(head: &[u8], len: f64) -> f64 {
+    crate::mesh::io::peak_load_bytes(head, len as u64, max_mesh_bytes()) as f64
 }
 
 /// A core error as a JS `Error` with the core's message.
@@ -150,8 +165,7 @@ fn js_error(error: Error) -> JsError {
 fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), JsError> {
     ensure_started();
     let start = now_ms();
-    let mesh = load_within(bytes, format, &NoResources, options::memory_budget(0) / 2)
-        .map_err(js_error)?;
+    let mesh = load_within(bytes, format, &NoResources, max_mesh_bytes()).map_err(js_error)?;
     Ok((mesh, now_ms() - start))
 }
 
@@ -422,7 +436,8 @@ impl crate::cascade::Observer for Progress {
             Ok(answer) if answer == JsValue::FALSE => ControlFlow::Break(()),
             Ok(_) => ControlFlow::Continue(()),
             Err(thrown) => {
-                self.failure = Some(describe_js(&thrown));
+                // The caller's text: escaped like the core's quotes.
+                self.failure = Some(FileText::new(&describe_js(&thrown)).to_string());
                 ControlFlow::Break(())
             }
         }

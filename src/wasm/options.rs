@@ -5,7 +5,8 @@
 //!
 //! A JS value is checked before serde sees it: a number may be NaN or
 //! fractional, and serde's own messages name neither the key nor the
-//! JavaScript type.
+//! JavaScript type. Keys and values are the caller's text: messages show
+//! them escaped.
 
 use js_sys::{Array, Object, Reflect};
 use serde::Serialize;
@@ -13,9 +14,19 @@ use serde::de::DeserializeOwned;
 use serde_json::{Map, Number, Value};
 use wasm_bindgen::prelude::*;
 
-use crate::error::Format;
+use crate::error::{FileText, Format};
 use crate::scene::SceneOptions;
 use crate::search::MatchOptions;
+
+#[wasm_bindgen]
+extern "C" {
+    // Catching: an exception (a Proxy's trap) thrown through the binding's
+    // frames would leave its handle borrowed for good.
+    #[wasm_bindgen(catch, js_namespace = Object, js_name = keys)]
+    fn object_keys(object: &Object) -> Result<Array, JsValue>;
+    #[wasm_bindgen(catch, js_namespace = Array, js_name = isArray)]
+    fn is_array(value: &JsValue) -> Result<bool, JsValue>;
+}
 
 /// Keys the binding reads besides a scene's [`SceneOptions`]: the format.
 pub const SCENE_EXTRA_KEYS: [&str; 1] = ["format"];
@@ -73,7 +84,8 @@ pub fn template_format(value: &JsValue) -> Result<Option<Format>, JsError> {
     let mut map = plain_object("template", value)?;
     if let Some(key) = map.keys().find(|k| k.as_str() != "format") {
         return Err(JsError::new(&format!(
-            "unknown template option '{key}'; the only option is format"
+            "unknown template option '{}'; the only option is format",
+            FileText::new(key)
         )));
     }
     format_option(map.remove("format"))
@@ -124,7 +136,8 @@ fn format_option(value: Option<Value>) -> Result<Option<Format>, JsError> {
         .map(Some)
         .ok_or_else(|| {
             JsError::new(&format!(
-                "invalid option format: '{name}' is not one of glb, gltf, obj, ply, stl"
+                "invalid option format: '{}' is not one of glb, gltf, obj, ply, stl",
+                FileText::new(&name)
             ))
         })
 }
@@ -150,7 +163,8 @@ fn check_keys(
     match map.keys().find(|k| !known.contains(k)) {
         None => Ok(()),
         Some(key) => Err(JsError::new(&format!(
-            "unknown {what} option '{key}'; the options are {}",
+            "unknown {what} option '{}'; the options are {}",
+            FileText::new(key),
             known.join(", ")
         ))),
     }
@@ -176,7 +190,11 @@ fn field<T: DeserializeOwned>(key: &str, value: Value) -> Result<T, JsError> {
 }
 
 fn invalid(key: &str, error: &serde_json::Error) -> JsError {
-    JsError::new(&format!("invalid option {key}: {}", plain(error)))
+    JsError::new(&format!(
+        "invalid option {}: {}",
+        FileText::new(key),
+        plain(error)
+    ))
 }
 
 /// An option's name in the core's words ("volume threshold") as
@@ -194,13 +212,14 @@ pub fn js_name(words: &str) -> String {
     name
 }
 
-/// serde's message in JavaScript's words.
+/// serde's message in JavaScript's words (it may quote the value).
 fn plain(error: &serde_json::Error) -> String {
-    error
+    let text = error
         .to_string()
         .replace("expected f64", "expected a number")
         .replace("expected u32", "expected a whole number")
-        .replace("expected usize", "expected a whole number")
+        .replace("expected usize", "expected a whole number");
+    FileText::new(&text).to_string()
 }
 
 /// The own enumerable properties of a plain object as JSON values;
@@ -210,16 +229,21 @@ fn plain_object(what: &str, value: &JsValue) -> Result<Map<String, Value>, JsErr
     if value.is_undefined() || value.is_null() {
         return Ok(map);
     }
-    let Some(object) = value
-        .dyn_ref::<Object>()
-        .filter(|_| !Array::is_array(value))
-    else {
+    let unreadable = |_| JsError::new(&format!("cannot read the {what} options"));
+    let Some(object) = value.dyn_ref::<Object>() else {
         return Err(JsError::new(&format!("{what} options must be an object")));
     };
-    for key in Object::keys(object).iter() {
+    if is_array(value).map_err(unreadable)? {
+        return Err(JsError::new(&format!("{what} options must be an object")));
+    }
+    for key in object_keys(object).map_err(unreadable)?.iter() {
         let key = key.as_string().unwrap_or_default();
-        let value = Reflect::get(object, &JsValue::from_str(&key))
-            .map_err(|_| JsError::new(&format!("cannot read option {key}")))?;
+        let value = Reflect::get(object, &JsValue::from_str(&key)).map_err(|_| {
+            JsError::new(&format!(
+                "cannot read {what} option {}",
+                FileText::new(&key)
+            ))
+        })?;
         if value.is_undefined() {
             continue;
         }
@@ -231,7 +255,8 @@ fn plain_object(what: &str, value: &JsValue) -> Result<Map<String, Value>, JsErr
             Value::Bool(b)
         } else {
             return Err(JsError::new(&format!(
-                "invalid option {key}: expected a number or a string"
+                "invalid option {}: expected a number or a string",
+                FileText::new(&key)
             )));
         };
         map.insert(key, json);
@@ -252,7 +277,8 @@ fn number(key: &str, n: f64) -> Result<Number, JsError> {
     } else {
         Number::from_f64(n).ok_or_else(|| {
             JsError::new(&format!(
-                "invalid option {key}: expected a finite number, got {n}"
+                "invalid option {}: expected a finite number, got {n}",
+                FileText::new(key)
             ))
         })
     }

@@ -10,6 +10,7 @@ import { extname } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { parseArgs } from 'node:util';
 
+import { shown } from '../errors.js';
 import { Scene, Template, init, memoryBytes, optionDefaults } from '../index.js';
 
 /** `volumeThreshold` -> `volume-threshold`. */
@@ -120,7 +121,8 @@ async function readMesh(path) {
   }
 }
 
-function printTable(report, build) {
+/** The report as the native CLI prints it without --json. */
+function table(report, build) {
   const t = report.template;
   const lines = [
     `build: wasm ${build}, ${report.threads} thread(s)`,
@@ -146,7 +148,22 @@ function printTable(report, build) {
     `time (ms): load ${tm.load.toFixed(1)}, voxelize/weld ${(tm.voxelize + tm.surface).toFixed(1)}, template ${tm.template.toFixed(1)}, match ${tm.match.toFixed(1)}, group ${tm.group.toFixed(1)}, total ${tm.total.toFixed(1)}`,
     `peak wasm memory: ${(memoryBytes() / 2 ** 20).toFixed(0)} MiB`,
   );
-  console.log(lines.join('\n'));
+  return lines.join('\n');
+}
+
+class OutputError extends Error {}
+
+/**
+ * Writes `text` and a newline to stdout, resolving once it is written: a
+ * closed pipe (EPIPE, `| head`) or a full disk rejects with an OutputError.
+ */
+function print(text) {
+  return new Promise((resolve, reject) => {
+    process.stdout.write(`${text}\n`, (error) => {
+      if (error) reject(new OutputError(`cannot write the output: ${error.message}`));
+      else resolve();
+    });
+  });
 }
 
 async function main(argv) {
@@ -160,7 +177,7 @@ async function main(argv) {
     throw error;
   }
   if (args.help) {
-    console.log(usage(flags));
+    await print(usage(flags));
     return;
   }
   if (args.threads > 1) {
@@ -194,14 +211,23 @@ async function main(argv) {
   report.timings_ms.total += readMs;
   if (args.json) {
     const { instancePositions, highlightRadius, threads, ...cliShape } = report;
-    console.log(JSON.stringify({ ...cliShape, wasm: { build, threads, memory_bytes: memoryBytes() } }));
+    await print(JSON.stringify({ ...cliShape, wasm: { build, threads, memory_bytes: memoryBytes() } }));
   } else {
-    printTable(report, build);
+    await print(table(report, build));
   }
 }
 
+// A failed write is also emitted as an 'error' event, which would end the
+// process with a stack trace: the write's callback reports it instead. A
+// closed stderr leaves nothing to tell; the exit code says it.
+process.stdout.on('error', () => {});
+process.stderr.on('error', () => {
+  process.exitCode ||= 1;
+});
+
 main(process.argv.slice(2)).catch((error) => {
-  console.error(`error: ${error.message}`);
-  if (error.usage) console.error(error.usage);
+  // One line, whatever the message quotes (a path, a flag, a file's text).
+  console.error(`error: ${shown(error?.message ?? String(error), Infinity)}`);
+  if (error?.usage) console.error(error.usage);
   process.exitCode = error instanceof UsageError ? 2 : 1;
 });
