@@ -324,3 +324,296 @@ fn case_7_a_template_no_resolution_fits_says_so() {
         "{e}"
     );
 }
+
+// Round two: what the first round missed.
+
+/// Whether `text` has a character a terminal would act on: any control
+/// but the newline that ends a message, or a bidirectional override.
+fn has_unsafe_char(text: &str) -> bool {
+    text.trim_end_matches('\n')
+        .chars()
+        .any(|c| c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}'))
+}
+
+/// Case 8: nothing a file says reaches the terminal raw, in the CLI or in
+/// the library's messages, whatever the loader; and it is bounded.
+#[test]
+fn case_8_file_text_is_escaped_and_bounded_in_every_message() {
+    let attack = hostile::TERMINAL_ATTACK;
+    let dir = scratch("escapes");
+    let long = format!("{attack}{}", "x".repeat(100_000));
+    // Raw in the parsed string, written as JSON escapes in the file.
+    let json = |text: &str| {
+        text.replace('\u{1b}', "\\u001b")
+            .replace('\u{7}', "\\u0007")
+    };
+    let uri = json(&long);
+    let files: Vec<(&str, Vec<u8>)> = vec![
+        // A buffer uri: missing, then refused.
+        (
+            "missing.gltf",
+            hostile::gltf_with_buffer(&uri, 42).into_bytes(),
+        ),
+        (
+            "refused.gltf",
+            hostile::gltf_with_buffer(&format!("../{uri}"), 42).into_bytes(),
+        ),
+        // A JSON value serde quotes in its message.
+        (
+            "value.gltf",
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"scenes":"{}"}}"#,
+                json(attack)
+            )
+            .into_bytes(),
+        ),
+        (
+            "header.ply",
+            format!("ply\nformat ascii 1.0\n{attack} 1\nend_header\n").into_bytes(),
+        ),
+        (
+            "vertex.obj",
+            format!("v 1 {attack} 3\nf 1 1 1\n").into_bytes(),
+        ),
+        (
+            "facet.stl",
+            format!("solid x\nfacet {attack}\nendsolid\n").into_bytes(),
+        ),
+    ];
+    for (name, bytes) in files {
+        let path = write(&dir, name, &bytes);
+        let err = cli_error(&["match", &path, "--select", "0,0,0,1"]);
+        assert!(!has_unsafe_char(&err), "{name}: {err:?}");
+        assert!(err.len() < 2_000, "{name}: {} bytes of message", err.len());
+        assert!(
+            err.contains("\\u{1b}"),
+            "{name}: the escape is not shown: {err}"
+        );
+        if let Err(e) = load(&bytes, None) {
+            let message = e.to_string();
+            assert!(!has_unsafe_char(&message), "{name}: {message:?}");
+        }
+    }
+    // A file's name is anyone's text too.
+    let named = write(
+        &dir,
+        &format!("{}.stl", attack.replace('/', "")),
+        b"solid\nfacet x\n",
+    );
+    let err = cli_error(&["match", &named, "--select", "0,0,0,1"]);
+    assert!(!has_unsafe_char(&err), "{err:?}");
+}
+
+/// Case 9: a binary PLY of 255-corner faces makes twelve times its bytes
+/// of triangles: refused by the loaders' limit before it is built, in the
+/// CLI under 1 GiB, and against a small cap in the library.
+#[test]
+fn case_9_polygon_amplification_is_refused_before_it_is_built() {
+    let dir = scratch("amplification");
+    // 2^25 triangles and a few more: at the loaders' own limit.
+    let faces = (1 << 25) / 253 + 1;
+    let file = write(&dir, "wide.ply", hostile::ply_of_wide_faces(faces));
+    let err = cli_error(&["match", &file, "--select", "0,0,0,1"]);
+    assert!(err.contains("above the limit"), "{err}");
+    let small = hostile::ply_of_wide_faces(64);
+    let e = fast_reject::mesh::io::load_within(
+        &small,
+        None,
+        &fast_reject::mesh::io::NoResources,
+        64 * 253 * 12 / 2,
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::MeshTooLarge { .. }), "{e}");
+    // What loading it may take, as the wasm module asks before copying it
+    // in: at least what the mesh would be.
+    let peak = fast_reject::mesh::io::peak_load_bytes(&small, small.len() as u64, u64::MAX);
+    assert!(peak >= 12 * 64 * 253 + small.len() as u64, "{peak}");
+    assert!(load(&small, None).is_ok());
+}
+
+/// Case 10: a budget past what the process can have is refused, not
+/// taken at its word until an allocation aborts.
+#[test]
+fn case_10_a_budget_past_the_machine_is_refused() {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let err = cli_error(&[
+        "match",
+        &scene,
+        "--template",
+        &template,
+        "--memory-budget",
+        "18446744073709551615",
+    ]);
+    assert!(err.contains("more than this process can have"), "{err}");
+    // The default fits what `ulimit -v` leaves, and the demo runs in it.
+    let out = cli_within(
+        &["match", &scene, "--template", &template, "--json"],
+        Duration::from_secs(60),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Case 11: a closed pipe or a full disk on standard output is a message
+/// and exit 1, not a panic.
+#[cfg(unix)]
+#[test]
+fn case_11_a_closed_output_is_an_error_not_a_panic() {
+    use std::process::Stdio;
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_fast-reject"))
+        .args(["demo", "--json"])
+        .stdout(Stdio::from(writer))
+        .stderr(Stdio::piped())
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.starts_with("error: cannot write the report"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    if Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_fast-reject"))
+            .args(["demo", "--json"])
+            .stdout(Stdio::from(full))
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains("No space left"), "{err}");
+    }
+}
+
+/// Case 12: a glTF buffer that is a named pipe is refused without being
+/// opened (opening it blocked until a writer came); buffers naming one
+/// file read it once.
+#[cfg(unix)]
+#[test]
+fn case_12_resources_are_checked_before_opening_and_read_once() {
+    let dir = scratch("fifo");
+    let fifo = dir.join("pipe.bin");
+    let made = Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success());
+    let model = write(
+        &dir,
+        "model.gltf",
+        hostile::gltf_with_buffer("pipe.bin", 42),
+    );
+    let err = cli_error(&["match", &model, "--select", "0,0,0,1"]);
+    assert!(err.contains("not a regular file"), "{err}");
+
+    let reads = std::cell::Cell::new(0);
+    let resolver = |path: &str| {
+        reads.set(reads.get() + 1);
+        (path == "big.bin").then(|| {
+            let mut bytes = hostile::triangle_buffer();
+            bytes.resize(1 << 20, 0);
+            bytes
+        })
+    };
+    let doc = hostile::gltf_with_buffers_naming_one_file("big.bin", 40, 1 << 20);
+    let mesh = fast_reject::mesh::io::load_with_resources(doc.as_bytes(), None, &resolver)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(mesh.triangles().len(), 40);
+    assert_eq!(reads.get(), 1, "one file, read {} times", reads.get());
+}
+
+/// Case 13: messages that were wrong: separate tiles on a floor are
+/// searched (they were told to weld the mesh), and a negative value is the
+/// option's own error (clap said to write '-- -1').
+#[test]
+fn case_13_tiles_are_searched_and_negative_values_are_checked() {
+    let mesh = load(&hostile::flat_tiles(10), None).unwrap();
+    let scene = Scene::new(mesh, &SceneOptions::DEFAULT).unwrap();
+    let tile = TemplateSource::Selection {
+        center: [0.5, 0.5, 0.0],
+        radius: 0.6,
+    };
+    let report =
+        search(&scene, &tile, &MatchOptions::DEFAULT, &mut ()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.instances.len(), 100);
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let scene = format!("{demo}/scene.glb");
+    let err = cli_error(&[
+        "match",
+        &scene,
+        "--select",
+        "0,0,0,1",
+        "--group-radius",
+        "-1",
+    ]);
+    assert!(err.contains("invalid option --group-radius"), "{err}");
+}
+
+/// Case 14: valid files that were refused: quantized positions
+/// (KHR_mesh_quantization), `extras` of any JSON type, a binary STL whose
+/// header starts like another format.
+#[test]
+fn case_14_valid_files_that_were_refused_are_read() {
+    for normalized in [false, true] {
+        for extras in [r#""a string""#, "[1, 2.5, null]", "true", r#"{"k": "v"}"#] {
+            let doc = hostile::quantized_tetrahedron(normalized, extras);
+            let mesh = load(doc.as_bytes(), None)
+                .unwrap_or_else(|e| panic!("normalized {normalized}, extras {extras}: {e}"));
+            assert_eq!(mesh.triangles().len(), 4);
+            let b = mesh.bounds();
+            assert!((b.max.x - 100.0).abs() < 0.01, "{b:?}");
+            assert!(b.min.x.abs() < 1e-6, "{b:?}");
+        }
+    }
+    // Compressed geometry is refused by name.
+    let draco = hostile::quantized_tetrahedron(false, "1").replace(
+        r#""extensionsRequired":["KHR_mesh_quantization"]"#,
+        r#""extensionsRequired":["KHR_draco_mesh_compression"]"#,
+    );
+    let e = load(draco.as_bytes(), None).unwrap_err().to_string();
+    assert!(
+        e.contains("KHR_draco_mesh_compression") && e.contains("compress"),
+        "{e}"
+    );
+    for header in [&b"glTF binary? no"[..], b"ply\nexported by a CAD tool"] {
+        let stl = hostile::stl_with_header(header, &hostile::tetrahedron_faces(1.0));
+        assert_eq!(fast_reject::mesh::io::sniff(&stl), Some(Format::Stl));
+        let mesh = load(&stl, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(mesh.triangles().len(), 4);
+        assert!(load(&stl, Some(Format::Stl)).is_ok());
+    }
+}
+
+/// Case 15: a tiny template in a part thousands of times its size: the
+/// windows on its lattice are far too many to list (a 12 GB list aborted
+/// the process), so only those near a vertex are listed; past the
+/// budget's share the list is refused.
+#[test]
+fn case_15_a_huge_part_lists_only_the_windows_it_needs() {
+    let dir = scratch("huge-part");
+    let cube = write(&dir, "cube.stl", hostile::cube(10.0));
+    let tet = write(&dir, "tet.stl", hostile::tetrahedron(0.05));
+    let out = cli_within(
+        &[
+            "match",
+            &cube,
+            "--template",
+            &tet,
+            "--memory-budget",
+            "64",
+            "--resolution",
+            "256",
+            "--json",
+        ],
+        Duration::from_secs(60),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+}

@@ -160,3 +160,140 @@ pub fn cube_spanning_tents(n: usize) -> Vec<u8> {
         .collect();
     stl(&triangles)
 }
+
+// Round two.
+
+/// A binary STL of `triangles` whose free-text header starts with `header`.
+pub fn stl_with_header(header: &[u8], triangles: &[[[f32; 3]; 3]]) -> Vec<u8> {
+    let mut out = stl(triangles);
+    out[..header.len()].copy_from_slice(header);
+    out
+}
+
+/// The four faces of the unit tetrahedron [`tetrahedron`] writes.
+pub fn tetrahedron_faces(scale: f32) -> [[[f32; 3]; 3]; 4] {
+    let [o, x, y, z] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0f32],
+    ]
+    .map(|p| p.map(|c| c * scale));
+    [[o, y, x], [o, x, z], [o, z, y], [x, y, z]]
+}
+
+/// A binary PLY of 256 one-byte vertices and `faces` faces of 255 one-byte
+/// corners: each 256-byte face is 253 triangles, twelve times its bytes.
+pub fn ply_of_wide_faces(faces: usize) -> Vec<u8> {
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex 256\n\
+         property uchar x\nproperty uchar y\nproperty uchar z\n\
+         element face {faces}\nproperty list uchar uchar vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    for i in 0..=255u8 {
+        out.extend_from_slice(&[i % 7, i / 7 % 7, i / 49]);
+    }
+    let mut face = vec![255u8];
+    face.extend(0..255u8);
+    out.reserve(faces * face.len());
+    for _ in 0..faces {
+        out.extend_from_slice(&face);
+    }
+    out
+}
+
+/// An axis-aligned cube of side `size` centred at the origin, 12 triangles.
+pub fn cube(size: f32) -> Vec<u8> {
+    let h = size / 2.0;
+    let v = |i: usize| [i & 1, (i >> 1) & 1, (i >> 2) & 1].map(|b| if b == 1 { h } else { -h });
+    let faces = [
+        [0, 2, 1],
+        [1, 2, 3],
+        [4, 5, 6],
+        [5, 7, 6],
+        [0, 1, 4],
+        [1, 5, 4],
+        [2, 6, 3],
+        [3, 6, 7],
+        [0, 4, 2],
+        [2, 4, 6],
+        [1, 3, 5],
+        [3, 7, 5],
+    ];
+    stl(&faces.map(|f| f.map(v)))
+}
+
+/// `n` x `n` separate unit squares on the floor, 0.5 apart.
+pub fn flat_tiles(n: usize) -> Vec<u8> {
+    let mut triangles = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (i as f32 * 1.5, j as f32 * 1.5);
+            let [a, b, c, d] =
+                [[x, y], [x + 1.0, y], [x + 1.0, y + 1.0], [x, y + 1.0]].map(|[x, y]| [x, y, 0.0]);
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    stl(&triangles)
+}
+
+/// A glTF of the unit tetrahedron scaled by 100 with `KHR_mesh_quantization`
+/// required: positions as 16-bit integers (normalized to [-1, 1] when
+/// `normalized`, with the node scaling them back), `extras` on the root,
+/// the node and the mesh.
+pub fn quantized_tetrahedron(normalized: bool, extras: &str) -> String {
+    let q: i16 = if normalized { 32767 } else { 100 };
+    let mut bytes = Vec::new();
+    for p in [[0, 0, 0], [q, 0, 0], [0, q, 0], [0, 0, q]] {
+        for c in p {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[0, 0]);
+    }
+    bytes.extend_from_slice(&[0u8, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]);
+    let scale = if normalized { 100.0 } else { 1.0 };
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"extras":{extras},
+        "extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"],
+        "scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"scale":[{scale},{scale},{scale}],"extras":{extras}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}],"extras":{extras}}}],
+        "buffers":[{{"byteLength":44,"uri":"{}"}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":32,"byteStride":8}},{{"buffer":0,"byteOffset":32,"byteLength":12}}],
+        "accessors":[{{"bufferView":0,"componentType":5122,"normalized":{normalized},"count":4,"type":"VEC3","min":[0,0,0],"max":[{q},{q},{q}]}},
+                     {{"bufferView":1,"componentType":5121,"count":12,"type":"SCALAR"}}]}}"#,
+        data_uri(&bytes)
+    )
+}
+
+/// `buffers` glTF buffers that all name `uri`, each `byte_length` long, and
+/// a triangle read from the first.
+pub fn gltf_with_buffers_naming_one_file(uri: &str, buffers: usize, byte_length: u64) -> String {
+    let list = vec![format!(r#"{{"byteLength":{byte_length},"uri":"{uri}"}}"#); buffers].join(",");
+    let views: Vec<String> = (0..buffers)
+        .map(|b| format!(r#"{{"buffer":{b},"byteOffset":0,"byteLength":36}}"#))
+        .collect();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{prims}]}}],
+        "buffers":[{list}],"bufferViews":[{views}],
+        "accessors":[{accessors}]}}"#,
+        prims = (0..buffers)
+            .map(|b| format!(r#"{{"attributes":{{"POSITION":{b}}}}}"#))
+            .collect::<Vec<_>>()
+            .join(","),
+        views = views.join(","),
+        accessors = (0..buffers)
+            .map(|b| format!(
+                r#"{{"bufferView":{b},"componentType":5126,"count":3,"type":"VEC3"}}"#
+            ))
+            .collect::<Vec<_>>()
+            .join(","),
+    )
+}
+
+/// Text that would take over a terminal if printed raw: clear the screen,
+/// home the cursor, print a false verdict, and set the clipboard (OSC 52).
+pub const TERMINAL_ATTACK: &str =
+    "\u{1b}[2J\u{1b}[Hall good: 3 instances found\u{1b}]52;c;ZWNobyBwd25lZA==\u{7}";
