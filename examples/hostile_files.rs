@@ -15,7 +15,11 @@ fn main() -> std::io::Result<()> {
         std::process::exit(2)
     }));
     std::fs::create_dir_all(&dir)?;
-    let files: [(&str, Vec<u8>); 8] = [
+    // Round two: raw in the parsed string, JSON escapes in the file.
+    let attack_uri = hostile::TERMINAL_ATTACK
+        .replace('\u{1b}', "\\u001b")
+        .replace('\u{7}', "\\u0007");
+    let files: [(&str, Vec<u8>); 12] = [
         (
             "escape-absolute.gltf",
             hostile::gltf_with_buffer("/etc/passwd", 1 << 30).into_bytes(),
@@ -36,6 +40,23 @@ fn main() -> std::io::Result<()> {
         ("tetrahedron-1e30.stl", hostile::tetrahedron(1e30)),
         ("random-2000.stl", hostile::random_triangles(2000, 7)),
         ("tiny-in-wide.stl", hostile::tiny_part_in_a_wide_scene()),
+        (
+            "escape-sequences.gltf",
+            hostile::gltf_with_buffer(&attack_uri, 42).into_bytes(),
+        ),
+        // Just past the loaders' 2^25 triangles, from 34 MB.
+        (
+            "wide-faces.ply",
+            hostile::ply_of_wide_faces((1 << 25) / 253 + 1),
+        ),
+        (
+            "header-gltf.stl",
+            hostile::stl_with_header(b"glTF? no: STL", &hostile::tetrahedron_faces(1.0)),
+        ),
+        (
+            "quantized.gltf",
+            hostile::quantized_tetrahedron(true, r#""a string""#).into_bytes(),
+        ),
     ];
     for (name, bytes) in files {
         std::fs::write(dir.join(name), bytes)?;

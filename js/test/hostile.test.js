@@ -153,6 +153,40 @@ test('case 7: a selection no resolution can resolve says so', async (t) => {
   );
 });
 
+test('case 8: text from a file reaches a message escaped and bounded', async (t) => {
+  const bytes = await file('escape-sequences.gltf');
+  for (const [what, f] of [
+    ['Scene.fromBytes(escape-sequences.gltf)', () => Scene.fromBytes(bytes)],
+    ['Template.fromBytes(escape-sequences.gltf)', () => Template.fromBytes(bytes)],
+  ]) {
+    const error = refused(t, what, f, /glTF buffer/);
+    // eslint-disable-next-line no-control-regex
+    assert.doesNotMatch(error.message, /[\u0000-\u001f\u007f-\u009f\u202a-\u202e]/, `${what}: a raw control character`);
+    assert.match(error.message, /\\u\{1b\}/, `${what}: the escape is not shown`);
+    assert.ok(error.message.length < 2000, `${what}: ${error.message.length} characters`);
+  }
+});
+
+test('case 9: PLY faces that make twelve times their bytes of triangles are refused before they are built', async (t) => {
+  const bytes = await file('wide-faces.ply');
+  refused(t, 'Scene.fromBytes(wide-faces.ply)', () => Scene.fromBytes(bytes), /above the limit/, 30_000);
+});
+
+test('case 10: valid files once refused load: a binary STL whose header says glTF, quantized glTF positions', async (t) => {
+  for (const name of ['header-gltf.stl', 'quantized.gltf']) {
+    const bytes = await file(name);
+    const { result } = bounded(t, `Scene.fromBytes(${name})`, () => {
+      const scene = Scene.fromBytes(bytes);
+      try {
+        return scene.triangles;
+      } finally {
+        scene.free();
+      }
+    });
+    assert.equal(result, 4, `${name}: a tetrahedron has 4 triangles`);
+  }
+});
+
 test('after every case, the same module still finds the demo scene\'s three instances', async (t) => {
   const [scene, template] = await Promise.all([
     readFile(new URL('scene.glb', demo)),
