@@ -280,6 +280,26 @@ def main():
         data = seeds[name]
         write("search_small", name, p + (data.encode() if isinstance(data, str) else data))
 
+    # load_ply_limited: the PLY seeds, and faces of 255 one-byte corners
+    # (twelve times their bytes of triangles) past the target's limit.
+    for name, data in seeds.items():
+        if name.endswith(".ply"):
+            write("load_ply_limited", name, data)
+    wide = (b"ply\nformat binary_little_endian 1.0\nelement vertex 256\n"
+            b"property uchar x\nproperty uchar y\nproperty uchar z\n"
+            b"element face 32\nproperty list uchar uchar vertex_indices\nend_header\n")
+    wide += bytes(c for i in range(256) for c in (i % 7, i // 7 % 7, i // 49))
+    wide += (bytes([255]) + bytes(range(255))) * 32
+    write("load_ply_limited", "wide-faces.ply", wide)
+
+    # message_text: files whose words and names carry terminal escapes.
+    attack = "\x1b[2J\x1b[Hall good\x1b]52;c;aGk=\x07\u202e"
+    write("message_text", "header.ply", "ply\nformat ascii 1.0\n%s 1\nend_header\n" % attack)
+    write("message_text", "vertex.obj", "v 1 %s 3\nf 1 1 1\n" % attack)
+    write("message_text", "facet.stl", "solid x\nfacet %s\nendsolid\n" % attack)
+    write("message_text", "uri.gltf", gltf_external(doc, attack.replace("\x1b", "%1B")))
+    write("message_text", "value.gltf", json.dumps({"asset": {"version": "2.0"}, "scenes": attack}))
+
 
 if __name__ == "__main__":
     main()
