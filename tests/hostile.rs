@@ -47,6 +47,12 @@ fn cli_error(args: &[&str]) -> String {
     err
 }
 
+/// The embedded demo's scene and template files.
+fn demo() -> (String, String) {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    (format!("{demo}/scene.glb"), format!("{demo}/template.glb"))
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
         .join("hostile")
@@ -257,8 +263,7 @@ fn case_5_ball_tables_are_counted_before_they_are_built() {
 /// within the time limit.
 #[test]
 fn case_6_work_is_bounded() {
-    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
-    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let (scene, template) = demo();
     let err = cli_error(&[
         "match",
         &scene,
@@ -435,8 +440,7 @@ fn case_9_polygon_amplification_is_refused_before_it_is_built() {
 /// taken at its word until an allocation aborts.
 #[test]
 fn case_10_a_budget_past_the_machine_is_refused() {
-    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
-    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let (scene, template) = demo();
     let err = cli_error(&[
         "match",
         &scene,
@@ -543,8 +547,7 @@ fn case_13_tiles_are_searched_and_negative_values_are_checked() {
     let report =
         search(&scene, &tile, &MatchOptions::DEFAULT, &mut ()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(report.instances.len(), 100);
-    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
-    let scene = format!("{demo}/scene.glb");
+    let (scene, _) = demo();
     let err = cli_error(&[
         "match",
         &scene,

@@ -203,10 +203,12 @@ pub(super) fn part_windows(
     ))
 }
 
+/// Bytes a listed window takes, with its share of the list's slack.
+const LISTED_BYTES: u64 = (std::mem::size_of::<Window>() + 32) as u64;
+
 /// Windows a list may hold: a sixteenth of the memory budget.
 fn max_listed(budget: u64) -> usize {
-    let per_window = (std::mem::size_of::<Window>() + 32) as u64;
-    usize::try_from(budget / 16 / per_window).unwrap_or(usize::MAX)
+    usize::try_from(budget / 16 / LISTED_BYTES).unwrap_or(usize::MAX)
 }
 
 /// The refusal for a part that needs more windows than a list may hold.
@@ -217,11 +219,10 @@ fn too_many_windows(
     windows: f64,
     most: usize,
 ) -> Error {
-    let per_window = (std::mem::size_of::<Window>() + 32) as u64;
     let mut estimate = MemoryEstimate::new();
     estimate.add(
         "the list of a large part's windows",
-        (windows * per_window as f64).min(u64::MAX as f64) as u64,
+        (windows * LISTED_BYTES as f64).min(u64::MAX as f64) as u64,
     );
     let extent = part.bounds().extent().max_element();
     Error::OverBudget {

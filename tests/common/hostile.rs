@@ -106,14 +106,7 @@ pub fn stl(triangles: &[[[f32; 3]; 3]]) -> Vec<u8> {
 
 /// A unit tetrahedron (corner at the origin) scaled by `scale`.
 pub fn tetrahedron(scale: f32) -> Vec<u8> {
-    let [o, x, y, z] = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, 0.0, 1.0f32],
-    ]
-    .map(|p| p.map(|c| c * scale));
-    stl(&[[o, y, x], [o, x, z], [o, z, y], [x, y, z]])
+    stl(&tetrahedron_faces(scale))
 }
 
 /// Case 6: `n` triangles with random corners in a 200-wide cube.

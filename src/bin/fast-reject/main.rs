@@ -230,18 +230,15 @@ fn memory_ceiling() -> Option<(u64, String)> {
         .ok()
         .and_then(|t| field(&t, "Max address space"))
         .map(|bytes| bytes - (bytes / 8).max(ADDRESS_SPACE_RESERVE).min(bytes / 2));
-    let mib = |b: u64| b >> 20;
+    let machine = machine.map(|m| (m, format!("the machine has {} MiB of memory", m >> 20)));
+    let address_space = address_space.map(|a| {
+        let why = format!("its address-space limit, ulimit -v, leaves {} MiB", a >> 20);
+        (a, why)
+    });
+    // The smaller says; the machine's on a tie.
     match (machine, address_space) {
-        (Some(m), Some(a)) if a < m => Some((
-            a,
-            format!("its address-space limit, ulimit -v, leaves {} MiB", mib(a)),
-        )),
-        (Some(m), _) => Some((m, format!("the machine has {} MiB of memory", mib(m)))),
-        (None, Some(a)) => Some((
-            a,
-            format!("its address-space limit, ulimit -v, leaves {} MiB", mib(a)),
-        )),
-        (None, None) => None,
+        (Some(m), Some(a)) => Some(if a.0 < m.0 { a } else { m }),
+        (m, a) => m.or(a),
     }
 }
 

@@ -79,12 +79,10 @@ pub fn peak_load_bytes(head: &[u8], len: u64, max_mesh_bytes: u64) -> u64 {
     // encoding, and whether the mesh grows by doubling (twice its size for
     // a moment) or is allocated at its final size.
     // A binary STL is known by its length, which `head` alone lacks.
-    let stl_count = head
-        .get(80..84)
-        .map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
-    let format = match stl_count {
-        Some(n) if 84 + 50 * n == len && !head.starts_with(b"glTF") => Some(Format::Stl),
-        _ => sniff(head),
+    let format = if is_binary_stl_of(head, len) && !is_glb_of(head, len) {
+        Some(Format::Stl)
+    } else {
+        sniff(head)
     };
     let (per_byte, doubling) = match format {
         // A binary face of 255 one-byte corners (256 bytes) is 253
@@ -161,19 +159,29 @@ pub fn load_within(
 
 /// Whether the length is what a binary STL's triangle count makes it.
 fn is_binary_stl(bytes: &[u8]) -> bool {
-    match bytes.get(80..84) {
-        Some(&[a, b, c, d]) => {
-            84 + 50 * u64::from(u32::from_le_bytes([a, b, c, d])) == bytes.len() as u64
-        }
+    is_binary_stl_of(bytes, bytes.len() as u64)
+}
+
+/// Whether a file of `len` bytes starting with `head` has the length its
+/// binary STL triangle count makes it.
+fn is_binary_stl_of(head: &[u8], len: u64) -> bool {
+    match head.get(80..84) {
+        Some(&[a, b, c, d]) => 84 + 50 * u64::from(u32::from_le_bytes([a, b, c, d])) == len,
         _ => false,
     }
 }
 
 /// Whether this is a GLB whose header declares the file's own length.
 fn is_glb(bytes: &[u8]) -> bool {
-    match bytes.get(..12) {
+    is_glb_of(bytes, bytes.len() as u64)
+}
+
+/// Whether a file of `len` bytes starting with `head` is a GLB whose header
+/// declares that length.
+fn is_glb_of(head: &[u8], len: u64) -> bool {
+    match head.get(..12) {
         Some(&[b'g', b'l', b'T', b'F', _, _, _, _, a, b, c, d]) => {
-            u64::from(u32::from_le_bytes([a, b, c, d])) == bytes.len() as u64
+            u64::from(u32::from_le_bytes([a, b, c, d])) == len
         }
         _ => false,
     }
