@@ -206,6 +206,88 @@ pub async fn run_cascade(
     Ok((survivors, stats))
 }
 
+/// Runs the stages over `candidates` with no batch, each thread taking a
+/// chunk of `chunk` points through every layer at a time: the survivors of
+/// one run, but only one chunk's states per thread alive at once. A
+/// descriptor whose state grows with the ball (the curvature's
+/// neighbourhood) would otherwise hold every candidate's: gigabytes on a
+/// finely fanned mesh. The observer sees the layers of a round of chunks at
+/// a time, their times shared out of the round's wall time.
+pub fn run_cascade_in_chunks(
+    stages: &[&dyn Stage],
+    candidates: Vec<u32>,
+    chunk: usize,
+    anchors: Anchors,
+    backend: Backend,
+    observer: &mut dyn Observer,
+) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+    let chunk = chunk.max(1);
+    let mut survivors = Vec::new();
+    let mut stats = Vec::new();
+    let mut rounds: Vec<&[u32]> = candidates.chunks(chunk * ROUND_CHUNKS).collect();
+    if rounds.is_empty() {
+        // No candidate: the layers are still reported, as one run would.
+        rounds.push(&[]);
+    }
+    for round in rounds {
+        let began = now_ms();
+        let pieces: Vec<&[u32]> = match round.is_empty() {
+            true => vec![round],
+            false => round.chunks(chunk).collect(),
+        };
+        let runs = backend.map_each(pieces.len(), |i| {
+            let quiet = &mut ();
+            finished(run_cascade(
+                stages,
+                pieces[i].to_vec(),
+                anchors,
+                Backend::Serial,
+                None,
+                quiet,
+            ))
+        });
+        let wall = now_ms() - began;
+        let mut round_stats = Vec::new();
+        for run in runs {
+            let (some, more) = run?;
+            survivors.extend(some);
+            add_layer_stats(&mut round_stats, more);
+        }
+        let busy: f64 = round_stats.iter().map(|s| s.ms).sum();
+        for s in &mut round_stats {
+            s.ms = if busy > 0.0 { s.ms * wall / busy } else { 0.0 };
+            if observer.on_layer(s).is_break() {
+                return Err(Error::Cancelled);
+            }
+        }
+        add_layer_stats(&mut stats, round_stats);
+    }
+    Ok((survivors, stats))
+}
+
+/// Chunks per round of [`run_cascade_in_chunks`]: enough for the threads to
+/// share evenly, few enough that a cancel is heard within a second or so.
+const ROUND_CHUNKS: usize = 32;
+
+/// Adds `more` to the statistics of the same stage and layer in `stats`
+/// (appended where there are none yet): the layers of several runs (parts,
+/// chunks) as one.
+pub fn add_layer_stats(stats: &mut Vec<LayerStats>, more: Vec<LayerStats>) {
+    for s in more {
+        match stats
+            .iter_mut()
+            .find(|t| t.descriptor == s.descriptor && t.layer == s.layer)
+        {
+            Some(t) => {
+                t.candidates += s.candidates;
+                t.survivors += s.survivors;
+                t.ms += s.ms;
+            }
+            None => stats.push(s),
+        }
+    }
+}
+
 /// The output of a future that never waits: a search with no batch (its
 /// stages compute every layer themselves). Polled once; one that would
 /// wait is a bug.
@@ -479,5 +561,87 @@ mod tests {
             serial.0.len()
         );
         assert_eq!(serial, parallel);
+    }
+
+    #[test]
+    fn chunks_give_the_survivors_and_counts_of_one_run() {
+        let whole = {
+            let a = random_table(3000, 6, 0x1234_5678_9abc_def1);
+            let b = Table {
+                name: "other",
+                ..random_table(3000, 4, 0x0fed_cba9_8765_4321)
+            };
+            let (survivors, stats) = run(&[&a, &b], (0..3000).rev().collect(), Backend::Serial);
+            (survivors, counts(&stats))
+        };
+        // Chunks that divide the candidates unevenly, rounds of several, a
+        // chunk of one, and a chunk larger than them all.
+        for chunk in [1, 7, 64, 5000] {
+            for backend in [Backend::Serial, Backend::Parallel] {
+                let a = random_table(3000, 6, 0x1234_5678_9abc_def1);
+                let b = Table {
+                    name: "other",
+                    ..random_table(3000, 4, 0x0fed_cba9_8765_4321)
+                };
+                let mut layers_seen = 0;
+                let mut observer = |_: &LayerStats| {
+                    layers_seen += 1;
+                    ControlFlow::Continue(())
+                };
+                let (survivors, stats) = run_cascade_in_chunks(
+                    &[&a, &b],
+                    (0..3000).rev().collect(),
+                    chunk,
+                    1,
+                    backend,
+                    &mut observer,
+                )
+                .unwrap();
+                assert!(
+                    (&survivors, counts(&stats)) == (&whole.0, whole.1.clone()),
+                    "chunk {chunk}"
+                );
+                let rounds = 3000usize.div_ceil(chunk * ROUND_CHUNKS);
+                assert_eq!(layers_seen, rounds * 10, "chunk {chunk}");
+                assert!(stats.iter().all(|s| s.ms >= 0.0 && s.ms.is_finite()));
+            }
+        }
+        // No candidate: every layer reported empty, as by one run.
+        let t = six_points();
+        let (survivors, stats) =
+            run_cascade_in_chunks(&[&t], Vec::new(), 8, 1, Backend::Parallel, &mut ()).unwrap();
+        assert!(survivors.is_empty());
+        assert_eq!(
+            counts(&stats),
+            [
+                ("table", 3, 1.5, 0, 0),
+                ("table", 1, 0.5, 0, 0),
+                ("table", 2, 1.0, 0, 0)
+            ]
+        );
+    }
+
+    #[test]
+    fn an_observer_that_breaks_stops_the_chunks_with_the_typed_error() {
+        let t = random_table(4000, 3, 7);
+        let mut seen = 0;
+        let mut observer = |_: &LayerStats| {
+            seen += 1;
+            ControlFlow::Break(())
+        };
+        let r = run_cascade_in_chunks(
+            &[&t],
+            (0..4000).collect(),
+            16,
+            1,
+            Backend::Parallel,
+            &mut observer,
+        );
+        assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
+        assert_eq!(seen, 1);
+        // Only the first round of chunks was computed.
+        let points: std::collections::BTreeSet<u32> =
+            t.computed().iter().map(|&(p, _)| p).collect();
+        assert_eq!(points.len(), 16 * ROUND_CHUNKS);
     }
 }

@@ -4,7 +4,7 @@
 use super::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
 use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
-use crate::cascade::{Observer, finished, run_cascade};
+use crate::cascade::{Observer, run_cascade_in_chunks};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
 use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
@@ -14,6 +14,11 @@ use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::template::{CurvatureTemplate, TemplateSource};
+
+/// Candidates a thread takes through every layer at a time: few enough
+/// that their neighbourhoods (a fanned cap's vertex holds thousands of
+/// triangles) stay within megabytes.
+const CHUNK: usize = 256;
 
 /// The curvature search: candidates are the scene's welded vertices;
 /// the best survivor of each blob must turn the same way as the template
@@ -53,37 +58,30 @@ pub(super) fn search_curvature(
                 options.curvature_threshold * SAMPLE_SLACK,
             )
             .named("curvature-sample");
-            let (near, mut stats) = finished(run_cascade(
+            let (near, mut stats) = run_cascade_in_chunks(
                 &[&loose],
                 sample.vertices,
+                CHUNK,
                 1,
                 options.backend,
-                None,
                 observer,
-            ))?;
+            )?;
             let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
             let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
-            let (survivors, exact) = finished(run_cascade(
+            let (survivors, exact) = run_cascade_in_chunks(
                 &[&curvature],
                 candidates,
+                CHUNK,
                 1,
                 options.backend,
-                None,
                 observer,
-            ))?;
+            )?;
             stats.extend(exact);
             (survivors, stats)
         }
         None => {
             let every = surface.used_vertices().collect();
-            finished(run_cascade(
-                &[&curvature],
-                every,
-                1,
-                options.backend,
-                None,
-                observer,
-            ))?
+            run_cascade_in_chunks(&[&curvature], every, CHUNK, 1, options.backend, observer)?
         }
     };
     let t2 = now_ms();

@@ -13,7 +13,9 @@ use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
 use super::windows::{Window, part_windows};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
-use crate::cascade::{LayerStats, Observer, Stage, Survivor, all_anchors, run_cascade};
+use crate::cascade::{
+    LayerStats, Observer, Stage, Survivor, add_layer_stats, all_anchors, run_cascade,
+};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
@@ -802,20 +804,7 @@ impl Found {
 
     /// Adds a part's layer statistics to those of the same stage and layer.
     fn add_stats(&mut self, stats: Vec<LayerStats>) {
-        for s in stats {
-            match self
-                .stages
-                .iter_mut()
-                .find(|t| t.descriptor == s.descriptor && t.layer == s.layer)
-            {
-                Some(t) => {
-                    t.candidates += s.candidates;
-                    t.survivors += s.survivors;
-                    t.ms += s.ms;
-                }
-                None => self.stages.push(s),
-            }
-        }
+        add_layer_stats(&mut self.stages, stats);
     }
 }
 
