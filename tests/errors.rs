@@ -335,6 +335,54 @@ fn cancelling_stops_the_search() {
 }
 
 #[test]
+fn cancelling_stops_a_search_of_parts_side_by_side() {
+    // The demo scene's parts are searched side by side on the threads; their
+    // layers reach the observer after each wave, and a break there ends the
+    // search with the same typed error.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let read = |name: &str| load(&std::fs::read(format!("{dir}/{name}")).unwrap(), None).unwrap();
+    let scene = Scene::new(read("scene.glb"), &SceneOptions::DEFAULT).unwrap();
+    let template = TemplateSource::Model(read("template.glb"));
+    let mut layers = Vec::new();
+    let mut record = |s: &fast_reject::cascade::LayerStats| {
+        layers.push((s.descriptor, s.layer, s.candidates, s.survivors));
+        std::ops::ControlFlow::Continue(())
+    };
+    let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut record).unwrap();
+    assert!(!report.instances.is_empty());
+    // Every part's layers are reported: together they are the report's.
+    for s in &report.stages {
+        let (candidates, survivors) = layers
+            .iter()
+            .filter(|l| (l.0, l.1) == (s.descriptor, s.layer))
+            .fold((0, 0), |(c, v), l| (c + l.2, v + l.3));
+        assert_eq!(
+            (candidates, survivors),
+            (s.candidates, s.survivors),
+            "{s:?}"
+        );
+    }
+    assert!(
+        layers.len() > report.stages.len(),
+        "one part only: {layers:?}"
+    );
+    let mut seen = 0;
+    let mut stop_at_first = |_: &fast_reject::cascade::LayerStats| {
+        seen += 1;
+        std::ops::ControlFlow::Break(())
+    };
+    let e = search(
+        &scene,
+        &template,
+        &MatchOptions::DEFAULT,
+        &mut stop_at_first,
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::Cancelled), "{e}");
+    assert_eq!(seen, 1);
+}
+
+#[test]
 fn a_template_of_slivers_that_fill_no_voxel_is_an_error() {
     // One triangle 7e31 long and 1 wide: under voxels of 1.8e30 its corners
     // round onto one line, and it marks no voxel (found by the fuzzer).

@@ -14,7 +14,7 @@ use super::windows::{Window, part_windows};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
 use crate::cascade::{
-    LayerStats, Observer, Stage, Survivor, add_layer_stats, all_anchors, run_cascade,
+    LayerStats, Observer, Stage, Survivor, add_layer_stats, all_anchors, finished, run_cascade,
 };
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
@@ -245,7 +245,7 @@ impl PartSearch<'_> {
         #[cfg(feature = "gpu")]
         if let Some(gpu) = gpu {
             let queue = crate::gpu::KernelQueue::new(gpu);
-            for wave in self.waves(parts, originals) {
+            for wave in self.waves(parts, originals, WAVE_PARTS) {
                 let started = now_ms();
                 let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Found>>> = wave
                     .iter()
@@ -290,28 +290,82 @@ impl PartSearch<'_> {
             }
             return Ok(searched);
         }
-        for &k in originals {
-            let (index, part) = parts[k];
-            let mut runner = Runner {
-                observer,
-                gpu,
-                #[cfg(feature = "gpu")]
-                queue: None,
-                held: self.held.clone(),
-            };
-            searched[k] = Some(self.part(index, part, &mut runner).await?);
+        for wave in self.waves(parts, originals, CPU_WAVE_PARTS) {
+            if let [(k, _)] = wave[..] {
+                let (index, part) = parts[k];
+                let mut runner = Runner {
+                    observer,
+                    gpu,
+                    #[cfg(feature = "gpu")]
+                    queue: None,
+                    held: self.held.clone(),
+                };
+                searched[k] = Some(self.part(index, part, &mut runner).await?);
+                continue;
+            }
+            for ((k, _), found) in wave.iter().zip(self.cpu_wave(parts, &wave, observer)?) {
+                searched[*k] = Some(found);
+            }
         }
         Ok(searched)
+    }
+
+    /// The parts of `wave` searched side by side on the CPU's threads, each
+    /// with its own threads inside as well: a small part keeps few threads
+    /// busy alone (a handful of blobs to verify, one instance to align).
+    /// Each part's layers are reported once the wave is done, in the
+    /// parts' order, and its times are shares of the wave's wall time.
+    fn cpu_wave(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        wave: &[(usize, MemoryEstimate)],
+        observer: &RefCell<&mut dyn Observer>,
+    ) -> Result<Vec<Found>> {
+        let started = now_ms();
+        let runs = self.options.backend.map_each(wave.len(), |i| {
+            let (k, held) = &wave[i];
+            let (index, part) = parts[*k];
+            let mut layers = Vec::new();
+            let found = {
+                let mut collect = |s: &LayerStats| {
+                    layers.push(s.clone());
+                    std::ops::ControlFlow::Continue(())
+                };
+                let own: RefCell<&mut dyn Observer> = RefCell::new(&mut collect);
+                let mut runner = Runner {
+                    observer: &own,
+                    gpu: None,
+                    #[cfg(feature = "gpu")]
+                    queue: None,
+                    held: held.clone(),
+                };
+                finished(self.part(index, part, &mut runner))
+            };
+            found.map(|found| (found, layers))
+        });
+        let wall = now_ms() - started;
+        let mut founds = Vec::with_capacity(runs.len());
+        for run in runs {
+            let (found, layers) = run?;
+            for layer in &layers {
+                if observer.borrow_mut().on_layer(layer).is_break() {
+                    return Err(Error::Cancelled);
+                }
+            }
+            founds.push(found);
+        }
+        share_cpu_wave_time(&mut founds, wall);
+        Ok(founds)
     }
 
     /// `originals` in waves (see [`plan_waves`]), each part with what the
     /// search holds beside it: the template's side and the other parts of
     /// its wave.
-    #[cfg(feature = "gpu")]
     fn waves(
         &self,
         parts: &[(usize, &ScenePart)],
         originals: &[usize],
+        max_parts: usize,
     ) -> Vec<Vec<(usize, MemoryEstimate)>> {
         let reach = self.template.radius() / self.lattice.spec.voxel_size;
         let grids: Vec<Option<u64>> = originals
@@ -331,7 +385,7 @@ impl PartSearch<'_> {
             })
             .collect();
         let free = self.scene.memory_budget().saturating_sub(self.held.total());
-        plan_waves(&grids, free, WAVE_PARTS)
+        plan_waves(&grids, free, max_parts)
             .into_iter()
             .map(|wave| {
                 wave.into_iter()
@@ -812,7 +866,6 @@ impl Found {
 /// `max_parts` parts while what they hold (`grids[n]` bytes) fits `free`
 /// bytes together; a part with no size (searched in windows) is a wave of
 /// its own. Each part comes with the bytes of the others of its wave.
-#[cfg(feature = "gpu")]
 fn plan_waves(grids: &[Option<u64>], free: u64, max_parts: usize) -> Vec<Vec<(usize, u64)>> {
     let mut waves: Vec<Vec<(usize, u64)>> = Vec::new();
     let mut wave: Vec<(usize, u64)> = Vec::new();
@@ -845,6 +898,30 @@ fn plan_waves(grids: &[Option<u64>], free: u64, max_parts: usize) -> Vec<Vec<(us
 /// more parts would mostly add memory (each holds its grids).
 #[cfg(feature = "gpu")]
 const WAVE_PARTS: usize = 16;
+
+/// Parts in a wave on the CPU at most: enough that the threads share them
+/// evenly whatever their sizes, few enough that a cancel is heard within a
+/// wave's time.
+const CPU_WAVE_PARTS: usize = 64;
+
+/// The times of a wave's parts that ran side by side on the CPU: each of
+/// their times scaled so that together they make the wave's wall time.
+fn share_cpu_wave_time(founds: &mut [Found], wall: f64) {
+    let busy: f64 = founds
+        .iter()
+        .map(|f| f.timings.voxelize + f.timings.match_ + f.timings.group)
+        .sum();
+    let scale = if busy > 0.0 { wall / busy } else { 0.0 };
+    for found in founds {
+        let t = &mut found.timings;
+        t.voxelize *= scale;
+        t.match_ *= scale;
+        t.group *= scale;
+        for s in &mut found.stages {
+            s.ms *= scale;
+        }
+    }
+}
 
 /// The times of a wave's parts, which ran side by side: the wave's match
 /// time is its wall time less what each part spent alone voxelizing and
