@@ -18,7 +18,7 @@
 use std::ops::ControlFlow;
 
 use crate::clock::now_ms;
-use crate::descriptor::{LayerBatch, LocalFuture, OnionDescriptor};
+use crate::descriptor::{Anchors, LayerBatch, LocalFuture, OnionDescriptor};
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 
@@ -39,18 +39,6 @@ pub struct LayerStats {
     pub survivors: usize,
     /// Wall time of the layer in milliseconds.
     pub ms: f64,
-}
-
-/// The anchors a point still matches, bit `a` for anchor `a`.
-pub type Anchors = u8;
-
-/// The most anchors a template may have.
-pub const MAX_ANCHORS: usize = 4;
-
-/// Every anchor of a template of `count` anchors.
-pub fn all_anchors(count: usize) -> Anchors {
-    assert!((1..=MAX_ANCHORS).contains(&count), "{count} anchors");
-    ((1u16 << count) - 1) as Anchors
 }
 
 /// A point that passed every layer, with its final distance in the last stage.

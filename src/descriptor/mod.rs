@@ -8,12 +8,14 @@
 //! needs from one layer to the next in its own `State`: a running sum for the
 //! voxel descriptors, a growing neighbourhood for the curvature one.
 
+mod anchors;
 pub(crate) mod batch;
 pub mod clutter;
 pub mod curvature;
 pub mod harmonics;
 pub mod volume;
 
+pub use anchors::{Anchors, MAX_ANCHORS, all_anchors};
 pub use clutter::ClutterPolicy;
 pub use curvature::CurvatureDescriptor;
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
@@ -22,7 +24,6 @@ pub use volume::VolumeDescriptor;
 use std::future::Future;
 use std::pin::Pin;
 
-use crate::cascade::Anchors;
 use crate::exec::Backend;
 use crate::voxel::Ball;
 use harmonics::{Signature, SphereSampler};

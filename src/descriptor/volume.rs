@@ -13,8 +13,8 @@
 //! (tested with the voxel balls) cancels out of the comparison.
 
 use super::batch::BatchFailure;
+use super::{Anchors, MAX_ANCHORS, all_anchors};
 use super::{ClutterPolicy, LayerBatch, LocalFuture, OnionDescriptor};
-use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
 use crate::voxel::{Ball, Solid, level_for_radius};
 

@@ -16,11 +16,6 @@ const CHUNK: usize = 16384;
 /// Workgroups along x (the kernel reads the candidate as y * this + x).
 const GROUPS_X: u32 = 65535;
 
-/// The per-degree error bound the stage's guard band assumes: about 40
-/// times the largest difference measured against the CPU (2.6e-7), and
-/// checked by the tests.
-pub(super) const MAX_ERROR: f32 = 1e-5;
-
 /// Matches the kernel's `Params`.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

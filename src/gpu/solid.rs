@@ -133,6 +133,6 @@ impl LayerBatch for GpuSolid<'_> {
     }
 
     fn max_sphere_error(&self) -> f32 {
-        super::harmonics::MAX_ERROR
+        super::MAX_ERROR
     }
 }

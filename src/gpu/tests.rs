@@ -93,7 +93,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
         eprintln!("radius {radius}: worst {worst:e}");
         // A quarter of the bound the guard band assumes.
         assert!(
-            worst <= harmonics::MAX_ERROR / 4.0,
+            worst <= super::MAX_ERROR / 4.0,
             "radius {radius}: {worst} on {}",
             gpu.description()
         );
@@ -120,7 +120,7 @@ fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
             for (v, g) in voxels.iter().zip(&got) {
                 let want = describe_sphere(&solid, *v, &sampler, &t);
                 for l in 0..DEGREES {
-                    assert!((g[l] - want[l]).abs() <= harmonics::MAX_ERROR / 4.0);
+                    assert!((g[l] - want[l]).abs() <= super::MAX_ERROR / 4.0);
                 }
             }
         }

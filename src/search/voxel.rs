@@ -14,12 +14,14 @@ use super::windows::{Window, part_windows};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
 use crate::cascade::{
-    LayerStats, Observer, Stage, Survivor, add_layer_stats, all_anchors, finished, run_cascade,
+    LayerStats, Observer, Stage, Survivor, add_layer_stats, finished, run_cascade,
 };
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
-use crate::descriptor::{HarmonicsDescriptor, LayerBatch, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{
+    HarmonicsDescriptor, LayerBatch, SphericalTransform, VolumeDescriptor, all_anchors,
+};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{
     Instance, Verified, best_first, group, local_bests, merge_duplicates, placement_transform,

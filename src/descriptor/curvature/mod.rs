@@ -39,7 +39,7 @@ pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
 pub use surface::{CurvedEdge, Edge, Surface};
 
 use super::OnionDescriptor;
-use crate::cascade::Anchors;
+use crate::descriptor::Anchors;
 use crate::math::Vec3;
 use bounds::{BOUND_MARGIN, gaussian_bounds};
 use neighbourhood::{add_cut_areas, add_cut_edges, gather, grow_layer};

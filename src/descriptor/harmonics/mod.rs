@@ -49,7 +49,7 @@ use super::batch::BatchFailure;
 use super::{LayerBatch, LocalFuture};
 
 use super::volume::closest;
-use crate::cascade::{Anchors, MAX_ANCHORS, all_anchors};
+use super::{Anchors, MAX_ANCHORS, all_anchors};
 use crate::exec::Backend;
 use crate::voxel::{Ball, Solid};
 

@@ -465,7 +465,7 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
             templates: v.templates(),
         });
         let candidates = (0..points.len() as u32).collect();
-        let all = crate::cascade::all_anchors(anchors.len());
+        let all = crate::descriptor::all_anchors(anchors.len());
         finished(run_cascade(
             &[&v, &h],
             candidates,
