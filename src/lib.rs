@@ -30,7 +30,7 @@
 //! `wasm32-unknown-unknown` with the `serde` feature, is the JavaScript
 //! binding).
 //!
-//! ```no_run
+//! ```
 //! use fast_reject::{LayerStats, MatchOptions, Scene, SceneOptions, TemplateSource, load, search};
 //!
 //! fn find(scene_bytes: &[u8], template_bytes: &[u8]) -> fast_reject::Result<()> {
@@ -45,10 +45,14 @@
 //!     };
 //!     let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut progress)?;
 //!     for i in &report.instances {
+//!         // score: the verified overlap; None for the curvature descriptor.
 //!         println!("{:?} distance {:.3} score {:?}", i.position, i.distance, i.score);
 //!     }
 //!     Ok(())
 //! }
+//! # let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+//! # let read = |name: &str| std::fs::read(format!("{demo}/{name}")).unwrap();
+//! # find(&read("scene.glb"), &read("template.glb")).unwrap();
 //! ```
 //!
 //! Every failure is a typed [`Error`] whose message says what to change;

@@ -8,27 +8,17 @@ use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::search::{MatchOptions, MatchReport, search, search_on_gpu};
 use fast_reject::{Scene, SceneOptions};
 
-/// FAST_REJECT_SKIP_GPU=1 skips the GPU tests (never in CI).
-fn skipped() -> bool {
-    let skip = std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1");
-    if skip {
-        eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
-    }
-    skip
+/// Any adapter, lavapipe included; a machine with none fails, saying what
+/// to install. Built with FAST_REJECT_SKIP_GPU=1, the tests that need one
+/// are ignored instead (never in CI).
+fn gpu() -> Gpu {
+    Gpu::request(AdapterChoice::Any)
+        .expect("a GPU device")
+        .expect(NO_ADAPTER)
 }
 
-/// Any adapter, lavapipe included; a machine with none fails, saying what
-/// to install, unless the GPU tests are skipped.
-fn gpu() -> Option<Gpu> {
-    if skipped() {
-        return None;
-    }
-    Some(
-        Gpu::request(AdapterChoice::Any)
-            .expect("a GPU device")
-            .expect("no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) or set FAST_REJECT_SKIP_GPU=1"),
-    )
-}
+const NO_ADAPTER: &str = "no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) \
+     or build the tests with FAST_REJECT_SKIP_GPU=1 to skip them";
 
 fn assert_same_search(name: &str, gpu: &Gpu) {
     let scene: Scene = common::scene(name, &SceneOptions::DEFAULT);
@@ -68,8 +58,9 @@ fn assert_same_search(name: &str, gpu: &Gpu) {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn the_gpu_finds_what_the_cpu_finds() {
-    let Some(gpu) = gpu() else { return };
+    let gpu = gpu();
     // Plain copies among other shapes, and copies with clutter beside them
     // (the guard's excused spheres).
     for name in ["zoo-bunny", "cluttered-bunny"] {
@@ -78,17 +69,15 @@ fn the_gpu_finds_what_the_cpu_finds() {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn a_device_too_small_for_the_grid_hands_its_layers_back_to_the_cpu() {
     use fast_reject::gpu::wgpu;
-    if skipped() {
-        return;
-    }
     // A device made by the caller, with storage bindings of 64 KiB: no
     // part's grid fits, so every layer goes back to the CPU.
     let instance =
         wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
-        .expect("no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) or set FAST_REJECT_SKIP_GPU=1");
+    let adapter =
+        pollster::block_on(instance.request_adapter(&Default::default())).expect(NO_ADAPTER);
     let descriptor = wgpu::DeviceDescriptor {
         required_limits: wgpu::Limits {
             max_storage_buffer_binding_size: 1 << 16,

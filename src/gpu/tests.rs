@@ -31,18 +31,14 @@ fn every_wgsl_source_is_valid() {
 }
 
 /// A GPU for the tests: any adapter, lavapipe included. A machine without
-/// one fails here, with what to install, unless FAST_REJECT_SKIP_GPU=1
-/// says to skip the GPU tests (never in CI).
-pub(crate) fn test_gpu() -> Option<Gpu> {
-    if std::env::var("FAST_REJECT_SKIP_GPU").is_ok_and(|v| v == "1") {
-        eprintln!("FAST_REJECT_SKIP_GPU=1: GPU test skipped");
-        return None;
-    }
+/// one fails here, with what to install; built with FAST_REJECT_SKIP_GPU=1,
+/// the tests that call this are ignored instead (never in CI).
+pub(crate) fn test_gpu() -> Gpu {
     match Gpu::request(AdapterChoice::Any) {
-        Ok(Some(gpu)) => Some(gpu),
+        Ok(Some(gpu)) => gpu,
         Ok(None) => panic!(
             "no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers, for lavapipe) \
-             or set FAST_REJECT_SKIP_GPU=1"
+             or build the tests with FAST_REJECT_SKIP_GPU=1 to skip them"
         ),
         Err(e) => panic!("{e}"),
     }
@@ -70,8 +66,9 @@ fn lumpy_solid(voxel: f64) -> Solid {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
-    let Some(gpu) = test_gpu() else { return };
+    let gpu = test_gpu();
     let solid = lumpy_solid(0.02);
     let t = SphericalTransform::new();
     let voxels = skin_sample(&solid, 97, 300);
@@ -107,8 +104,9 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
 /// A sphere's tables depend on its radius and level alone: two parts'
 /// solids read the same ones, uploaded once, with the CPU's results.
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
-    let Some(gpu) = test_gpu() else { return };
+    let gpu = test_gpu();
     let t = SphericalTransform::new();
     for voxel in [0.02, 0.03] {
         let solid = lumpy_solid(voxel);
@@ -129,10 +127,11 @@ fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn gpu_ball_counts_equal_the_cpus() {
     use crate::descriptor::volume::BLOCKS_PER_RADIUS;
     use crate::voxel::{Ball, level_for_radius};
-    let Some(gpu) = test_gpu() else { return };
+    let gpu = test_gpu();
     let solid = lumpy_solid(0.02);
     let dims = solid.bits().dims().map(|d| d as u16 - 1);
     // Skin voxels, and the grid's corners and an edge's middle, where the
@@ -164,9 +163,10 @@ fn gpu_ball_counts_equal_the_cpus() {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn a_balls_run_tables_are_uploaded_once_for_every_part() {
     use crate::voxel::Ball;
-    let Some(gpu) = test_gpu() else { return };
+    let gpu = test_gpu();
     let kept = |gpu: &Gpu| gpu.ball_tables.lock().unwrap().len();
     let (small, large) = (Ball::at_level(7.0, 1), Ball::at_level(30.0, 3));
     // Two parts' solids, each searched with the same two balls.
@@ -190,9 +190,10 @@ fn a_balls_run_tables_are_uploaded_once_for_every_part() {
 }
 
 #[test]
+#[cfg_attr(skip_gpu_tests, ignore = "FAST_REJECT_SKIP_GPU=1: needs a GPU adapter")]
 fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
     use crate::voxel::Ball;
-    let Some(gpu) = test_gpu() else { return };
+    let gpu = test_gpu();
     let solids = [lumpy_solid(0.02), lumpy_solid(0.03)];
     let ball = Ball::at_level(9.0, 1);
     let queue = KernelQueue::new(&gpu);
