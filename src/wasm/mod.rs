@@ -155,9 +155,33 @@ pub fn peak_load_bytes(head: &[u8], len: f64) -> f64 {
     crate::mesh::io::peak_load_bytes(head, len as u64, max_mesh_bytes()) as f64
 }
 
-/// A core error as a JS `Error` with the core's message.
+/// A core error as a JS `Error` with the core's message. Where memory ran
+/// short, it says how much the scenes and templates still alive hold: the
+/// page may be keeping some it no longer needs.
 fn js_error(error: Error) -> JsError {
-    JsError::new(&error.describe_with(options::js_name))
+    let message = error.describe_with(options::js_name);
+    match error {
+        Error::MeshTooLarge { .. } | Error::OverBudget { .. } | Error::GridTooLarge { .. } => {
+            JsError::new(&format!("{message}{}", held_elsewhere()))
+        }
+        _ => JsError::new(&message),
+    }
+}
+
+/// The advice [`js_error`] adds to a memory error: what is live of the
+/// module's memory, when that is a share worth freeing.
+fn held_elsewhere() -> String {
+    const MIB: u64 = 1 << 20;
+    let (live, limit) = (heap::live_bytes(), memory_limit_bytes());
+    if live < limit / 8 {
+        return String::new();
+    }
+    format!(
+        " ({} MiB of the module's {} MiB are held now, by the scenes and templates alive \
+         and this call's input: free() those no longer needed)",
+        live / MIB,
+        limit / MIB
+    )
 }
 
 /// Parses a mesh in the named format (or the one its content shows), with
