@@ -7,8 +7,10 @@ mod congruent_parts;
 mod curvature;
 mod near_vertices;
 mod options;
+mod place;
 mod report;
 mod voxel;
+mod waves;
 mod windows;
 
 pub use options::{DescriptorKind, MatchOptions};

@@ -9,13 +9,15 @@ use super::GpuRef;
 use super::congruent_parts::congruent_parts;
 use super::near_vertices::{self, NearVertices, template_gap};
 use super::options::{DescriptorKind, MatchOptions};
+use super::place::{align_instances, moved_instance, template_samples};
 use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
+use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time};
+#[cfg(feature = "gpu")]
+use super::waves::{WAVE_PARTS, share_wave_time};
 use super::windows::{Window, part_windows};
-use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
+use crate::align::{Rigid, SurfaceSamples};
 use crate::budget::{add_ball_tables, candidate_bytes, voxel_bytes};
-use crate::cascade::{
-    LayerStats, Observer, Stage, Survivor, add_layer_stats, finished, run_cascade,
-};
+use crate::cascade::{LayerStats, Observer, Stage, Survivor, finished, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
@@ -706,109 +708,6 @@ impl PartSearch<'_> {
     }
 }
 
-/// Surface samples the template's pose is refined with: a model's whole
-/// surface, or the selected part's within the sphere.
-fn template_samples(
-    source: &TemplateSource,
-    scene: &Scene,
-    template: &VoxelTemplate,
-) -> SurfaceSamples {
-    let (c, r) = (template.center(), template.radius());
-    let triangles: Vec<[Vec3; 3]> = match source {
-        TemplateSource::Model(model) => (0..model.triangles().len())
-            .map(|t| model.corners(t))
-            .collect(),
-        TemplateSource::Selection { .. } => {
-            let part = template
-                .scene_part()
-                .expect("a selection lies on a scene part");
-            scene.parts(Parts::Components)[part]
-                .triangles()
-                .iter()
-                .map(|&t| scene.mesh().corners(t as usize))
-                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
-                .collect()
-        }
-    };
-    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
-}
-
-/// Template surface samples for the pose refinement.
-const ALIGN_SAMPLES: usize = 1024;
-
-/// Refines each instance's pose on the meshes ([`crate::align`]): the
-/// template's samples onto `part`'s triangles around the instance. The
-/// instance's position follows its pose, and its score falls to the share
-/// of the template's surface within `surface_tolerance` of r_k of the
-/// scene's there (what lands inside `voxels`' solid is hidden, up to
-/// `max_hidden`).
-#[allow(clippy::too_many_arguments)]
-fn align_instances(
-    instances: &mut [Instance],
-    scene: &Scene,
-    part: &ScenePart,
-    voxels: &PartVoxels,
-    samples: &SurfaceSamples,
-    template: &VoxelTemplate,
-    max_hidden: f64,
-    surface_tolerance: f64,
-    backend: crate::exec::Backend,
-) {
-    if samples.is_empty() {
-        return;
-    }
-    let mesh = scene.mesh();
-    let voxel = voxels.grid().spec().voxel_size;
-    let reach = template.radius() + 4.0 * voxel;
-    let tolerance = surface_tolerance * template.radius();
-    // Inside the solid, and a voxel clear of its surface.
-    let hidden = |p: Vec3| {
-        let v = voxels.grid().spec().voxel_of(p);
-        voxels.grid().get(v[0], v[1], v[2]) && !voxels.near_surface().get(v[0], v[1], v[2])
-    };
-    let refined = backend.map_each(instances.len(), |i| {
-        let start = Rigid::from_rows(&instances[i].pose?);
-        let p = Vec3::from_array(instances[i].position);
-        let bounds = Aabb {
-            min: p - Vec3::splat(reach),
-            max: p + Vec3::splat(reach),
-        };
-        let triangles: Vec<u32> = part
-            .triangles()
-            .iter()
-            .copied()
-            .filter(|&t| {
-                Aabb::around(mesh.corners(t as usize)).is_some_and(|b| b.distance_to(p) <= reach)
-            })
-            .collect();
-        // Cells of 1.5 voxels, or of a 48th of the box for a template of
-        // many: queries reach a voxel or three.
-        let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
-        let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
-        let pose = align(samples, &index, start, voxel).pose;
-        let agreement = surface_agreement(samples, &index, pose, tolerance, hidden, max_hidden);
-        Some((pose, agreement))
-    });
-    for (instance, refined) in instances.iter_mut().zip(refined) {
-        if let Some((pose, agreement)) = refined {
-            instance.pose = Some(pose.to_rows());
-            instance.position = pose.apply(template.center()).to_array();
-            instance.score = Some(agreement);
-        }
-    }
-}
-
-/// `instance`, found on a part, on that part's copy `motion` away.
-fn moved_instance(instance: &Instance, motion: &Rigid) -> Instance {
-    Instance {
-        position: motion.apply(Vec3::from_array(instance.position)).to_array(),
-        pose: instance
-            .pose
-            .map(|pose| motion.after(&Rigid::from_rows(&pose)).to_rows()),
-        ..instance.clone()
-    }
-}
-
 /// What one part's search runs with: where it reports its layers, what
 /// computes them besides the CPU, and what the search holds beside it.
 struct Runner<'r, 'o> {
@@ -827,130 +726,6 @@ struct SharedObserver<'r, 'o>(&'r RefCell<&'o mut dyn Observer>);
 impl Observer for SharedObserver<'_, '_> {
     fn on_layer(&mut self, stats: &LayerStats) -> std::ops::ControlFlow<()> {
         self.0.borrow_mut().on_layer(stats)
-    }
-}
-
-/// What the parts searched so far have found.
-#[derive(Default)]
-struct Found {
-    instances: Vec<Instance>,
-    stages: Vec<LayerStats>,
-    skin_voxels: usize,
-    windows: usize,
-    timings: Timings,
-    /// Why harmonics layers went back to the CPU, the first time one did.
-    gpu_fallback: Option<String>,
-}
-
-impl Found {
-    /// Adds what a part found.
-    fn merge(&mut self, part: &Found) {
-        self.instances.extend(part.instances.iter().cloned());
-        self.add_stats(part.stages.clone());
-        self.skin_voxels += part.skin_voxels;
-        self.windows += part.windows;
-        let (t, p) = (&mut self.timings, &part.timings);
-        t.voxelize += p.voxelize;
-        t.match_ += p.match_;
-        t.group += p.group;
-        if self.gpu_fallback.is_none() {
-            self.gpu_fallback = part.gpu_fallback.clone();
-        }
-    }
-
-    /// Adds a part's layer statistics to those of the same stage and layer.
-    fn add_stats(&mut self, stats: Vec<LayerStats>) {
-        add_layer_stats(&mut self.stages, stats);
-    }
-}
-
-/// Parts in waves searched side by side, in order: a wave takes up to
-/// `max_parts` parts while what they hold (`grids[n]` bytes) fits `free`
-/// bytes together; a part with no size (searched in windows) is a wave of
-/// its own. Each part comes with the bytes of the others of its wave.
-fn plan_waves(grids: &[Option<u64>], free: u64, max_parts: usize) -> Vec<Vec<(usize, u64)>> {
-    let mut waves: Vec<Vec<(usize, u64)>> = Vec::new();
-    let mut wave: Vec<(usize, u64)> = Vec::new();
-    let close = |wave: &mut Vec<(usize, u64)>, waves: &mut Vec<Vec<(usize, u64)>>| {
-        let total: u64 = wave.iter().map(|&(_, b)| b).sum();
-        waves.push(wave.drain(..).map(|(n, own)| (n, total - own)).collect());
-    };
-    for (n, grid) in grids.iter().enumerate() {
-        let total: u64 = wave.iter().map(|&(_, b)| b).sum();
-        let fits =
-            grid.is_some_and(|own| total.saturating_add(own) <= free) && wave.len() < max_parts;
-        if !wave.is_empty() && !fits {
-            close(&mut wave, &mut waves);
-        }
-        wave.push((n, grid.unwrap_or(0)));
-        if grid.is_none() {
-            close(&mut wave, &mut waves);
-        }
-    }
-    if !wave.is_empty() {
-        close(&mut wave, &mut waves);
-    }
-    waves
-}
-
-/// Parts in a wave at most. A submission's fixed cost (0.1-0.25 ms
-/// measured on an H100, whatever its kernels) is shared by a wave's parts,
-/// while each kernel costs its own 30-130 us to build and submit: at 16
-/// parts the shared part is already below a tenth of a layer's cost, and
-/// more parts would mostly add memory (each holds its grids).
-#[cfg(feature = "gpu")]
-const WAVE_PARTS: usize = 16;
-
-/// Parts in a wave on the CPU at most: enough that the threads share them
-/// evenly whatever their sizes, few enough that a cancel is heard within a
-/// wave's time.
-const CPU_WAVE_PARTS: usize = 64;
-
-/// The times of a wave's parts that ran side by side on the CPU: each of
-/// their times scaled so that together they make the wave's wall time.
-fn share_cpu_wave_time(founds: &mut [Found], wall: f64) {
-    let busy: f64 = founds
-        .iter()
-        .map(|f| f.timings.voxelize + f.timings.match_ + f.timings.group)
-        .sum();
-    let scale = if busy > 0.0 { wall / busy } else { 0.0 };
-    for found in founds {
-        let t = &mut found.timings;
-        t.voxelize *= scale;
-        t.match_ *= scale;
-        t.group *= scale;
-        for s in &mut found.stages {
-            s.ms *= scale;
-        }
-    }
-}
-
-/// The times of a wave's parts, which ran side by side: the wave's match
-/// time is its wall time less what each part spent alone voxelizing and
-/// grouping, and a layer's time the longest any part spent in it (they
-/// wait on the same submissions). Both go to the first part that has them.
-#[cfg(feature = "gpu")]
-fn share_wave_time(founds: &mut [Found], wall: f64) {
-    let alone: f64 = founds
-        .iter()
-        .map(|f| f.timings.voxelize + f.timings.group)
-        .sum();
-    for (n, found) in founds.iter_mut().enumerate() {
-        found.timings.match_ = if n == 0 { (wall - alone).max(0.0) } else { 0.0 };
-    }
-    let mut longest: Vec<((&str, usize), f64)> = Vec::new();
-    for s in founds.iter().flat_map(|f| &f.stages) {
-        let key = (s.descriptor, s.layer);
-        match longest.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, ms)) => *ms = ms.max(s.ms),
-            None => longest.push((key, s.ms)),
-        }
-    }
-    for s in founds.iter_mut().flat_map(|f| &mut f.stages) {
-        let slot = longest
-            .iter_mut()
-            .find(|(k, _)| *k == (s.descriptor, s.layer));
-        s.ms = slot.map_or(0.0, |(_, ms)| std::mem::take(ms));
     }
 }
 
@@ -1023,42 +798,4 @@ fn too_much_for_template(radii: &[f64], lattice: &Lattice) -> String {
         "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
         lattice.resolution
     )
-}
-
-#[cfg(all(test, feature = "gpu"))]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parts_share_a_wave_while_their_grids_fit_together() {
-        let waves =
-            |grids: &[Option<u64>], free| -> Vec<Vec<(usize, u64)>> { plan_waves(grids, free, 3) };
-        // All fit: one wave, each part held beside the others.
-        assert_eq!(
-            waves(&[Some(10), Some(20), Some(30)], 60),
-            [vec![(0, 50), (1, 40), (2, 30)]]
-        );
-        // The third would pass the budget: it starts the next wave.
-        assert_eq!(
-            waves(&[Some(10), Some(20), Some(31)], 60),
-            [vec![(0, 20), (1, 10)], vec![(2, 0)]]
-        );
-        // A part larger than the budget alone still gets a wave (its own
-        // check refuses it, as without the GPU).
-        assert_eq!(
-            waves(&[Some(70), Some(5)], 60),
-            [vec![(0, 0)], vec![(1, 0)]]
-        );
-        // A part searched in windows runs alone, between the others.
-        assert_eq!(
-            waves(&[Some(1), None, Some(1), Some(1)], 60),
-            [vec![(0, 0)], vec![(1, 0)], vec![(2, 1), (3, 1)]]
-        );
-        // No more than the most parts a wave takes.
-        assert_eq!(
-            waves(&[Some(1); 5], 60),
-            [vec![(0, 2), (1, 2), (2, 2)], vec![(3, 1), (4, 1)]]
-        );
-        assert!(waves(&[], 60).is_empty());
-    }
 }

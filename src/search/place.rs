@@ -1,0 +1,112 @@
+//! Placing a part's instances: the template's surface samples, their
+//! alignment on the meshes around each instance (its pose and score), and
+//! an instance carried to a congruent copy of its part.
+
+use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
+use crate::instances::Instance;
+use crate::math::{Aabb, Vec3};
+use crate::scene::{PartVoxels, Parts, Scene, ScenePart};
+use crate::template::{TemplateSource, VoxelTemplate};
+
+/// Surface samples the template's pose is refined with: a model's whole
+/// surface, or the selected part's within the sphere.
+pub(super) fn template_samples(
+    source: &TemplateSource,
+    scene: &Scene,
+    template: &VoxelTemplate,
+) -> SurfaceSamples {
+    let (c, r) = (template.center(), template.radius());
+    let triangles: Vec<[Vec3; 3]> = match source {
+        TemplateSource::Model(model) => (0..model.triangles().len())
+            .map(|t| model.corners(t))
+            .collect(),
+        TemplateSource::Selection { .. } => {
+            let part = template
+                .scene_part()
+                .expect("a selection lies on a scene part");
+            scene.parts(Parts::Components)[part]
+                .triangles()
+                .iter()
+                .map(|&t| scene.mesh().corners(t as usize))
+                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
+                .collect()
+        }
+    };
+    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
+}
+
+/// Template surface samples for the pose refinement.
+const ALIGN_SAMPLES: usize = 1024;
+
+/// Refines each instance's pose on the meshes ([`crate::align`]): the
+/// template's samples onto `part`'s triangles around the instance. The
+/// instance's position follows its pose, and its score falls to the share
+/// of the template's surface within `surface_tolerance` of r_k of the
+/// scene's there (what lands inside `voxels`' solid is hidden, up to
+/// `max_hidden`).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn align_instances(
+    instances: &mut [Instance],
+    scene: &Scene,
+    part: &ScenePart,
+    voxels: &PartVoxels,
+    samples: &SurfaceSamples,
+    template: &VoxelTemplate,
+    max_hidden: f64,
+    surface_tolerance: f64,
+    backend: crate::exec::Backend,
+) {
+    if samples.is_empty() {
+        return;
+    }
+    let mesh = scene.mesh();
+    let voxel = voxels.grid().spec().voxel_size;
+    let reach = template.radius() + 4.0 * voxel;
+    let tolerance = surface_tolerance * template.radius();
+    // Inside the solid, and a voxel clear of its surface.
+    let hidden = |p: Vec3| {
+        let v = voxels.grid().spec().voxel_of(p);
+        voxels.grid().get(v[0], v[1], v[2]) && !voxels.near_surface().get(v[0], v[1], v[2])
+    };
+    let refined = backend.map_each(instances.len(), |i| {
+        let start = Rigid::from_rows(&instances[i].pose?);
+        let p = Vec3::from_array(instances[i].position);
+        let bounds = Aabb {
+            min: p - Vec3::splat(reach),
+            max: p + Vec3::splat(reach),
+        };
+        let triangles: Vec<u32> = part
+            .triangles()
+            .iter()
+            .copied()
+            .filter(|&t| {
+                Aabb::around(mesh.corners(t as usize)).is_some_and(|b| b.distance_to(p) <= reach)
+            })
+            .collect();
+        // Cells of 1.5 voxels, or of a 48th of the box for a template of
+        // many: queries reach a voxel or three.
+        let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
+        let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
+        let pose = align(samples, &index, start, voxel).pose;
+        let agreement = surface_agreement(samples, &index, pose, tolerance, hidden, max_hidden);
+        Some((pose, agreement))
+    });
+    for (instance, refined) in instances.iter_mut().zip(refined) {
+        if let Some((pose, agreement)) = refined {
+            instance.pose = Some(pose.to_rows());
+            instance.position = pose.apply(template.center()).to_array();
+            instance.score = Some(agreement);
+        }
+    }
+}
+
+/// `instance`, found on a part, on that part's copy `motion` away.
+pub(super) fn moved_instance(instance: &Instance, motion: &Rigid) -> Instance {
+    Instance {
+        position: motion.apply(Vec3::from_array(instance.position)).to_array(),
+        pose: instance
+            .pose
+            .map(|pose| motion.after(&Rigid::from_rows(&pose)).to_rows()),
+        ..instance.clone()
+    }
+}
