@@ -55,6 +55,8 @@ test('scenes held past the module memory are refused, never a trap', { timeout: 
       `${held.length} scenes held, module at ${Math.round(memoryBytes() / 2 ** 20)} of ${info.memoryLimitBytes / 2 ** 20} MiB: ${refusal?.message}`,
     );
     assert.ok(refusal, 'holding 32 large scenes was never refused');
+    // The refusal says what the live scenes hold, and to free them.
+    assert.match(refusal.message, /MiB are held now, by the scenes and templates alive and this call's input: free\(\) those no longer needed/);
     assert.ok(memoryBytes() <= info.memoryLimitBytes);
     // A file larger than what is left could not even be copied in: a
     // failed allocation there would trap, so it is refused first.
