@@ -235,9 +235,9 @@ fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
 
 impl PartSearch<'_> {
     /// What each part of `originals` (indices into `parts`) found, by
-    /// index: one by one on the CPU; on a GPU side by side, in waves that
-    /// fit the memory budget together, so that a layer is one submission
-    /// for all parts of a wave ([`crate::gpu::KernelQueue`]).
+    /// index: side by side, in waves that fit the memory budget together.
+    /// On the CPU a wave's parts share the threads; on a GPU a layer is one
+    /// submission for all parts of a wave ([`crate::gpu::KernelQueue`]).
     async fn search_parts(
         &self,
         parts: &[(usize, &ScenePart)],
