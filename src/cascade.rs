@@ -209,20 +209,18 @@ pub fn run_cascade_in_chunks(
     backend: Backend,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+    if candidates.is_empty() {
+        // The layers are still reported, each empty.
+        return finished(run_cascade(
+            stages, candidates, anchors, backend, None, observer,
+        ));
+    }
     let chunk = chunk.max(1);
     let mut survivors = Vec::new();
     let mut stats = Vec::new();
-    let mut rounds: Vec<&[u32]> = candidates.chunks(chunk * ROUND_CHUNKS).collect();
-    if rounds.is_empty() {
-        // No candidate: the layers are still reported, as one run would.
-        rounds.push(&[]);
-    }
-    for round in rounds {
+    for round in candidates.chunks(chunk * ROUND_CHUNKS) {
         let began = now_ms();
-        let pieces: Vec<&[u32]> = match round.is_empty() {
-            true => vec![round],
-            false => round.chunks(chunk).collect(),
-        };
+        let pieces: Vec<&[u32]> = round.chunks(chunk).collect();
         let runs = backend.map_each(pieces.len(), |i| {
             let quiet = &mut ();
             finished(run_cascade(
