@@ -3,15 +3,10 @@
 //! and harmonics on the scene's skin voxels) and the curvature one
 //! (`curvature.rs`: on the welded mesh's vertices).
 
-mod congruent_parts;
 mod curvature;
-mod near_vertices;
 mod options;
-mod place;
 mod report;
 mod voxel;
-mod waves;
-mod windows;
 
 pub use options::{DescriptorKind, MatchOptions};
 pub use report::{GpuInfo, GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};

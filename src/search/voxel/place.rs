@@ -1,12 +1,112 @@
-//! Placing a part's instances: the template's surface samples, their
-//! alignment on the meshes around each instance (its pose and score), and
-//! an instance carried to a congruent copy of its part.
+//! Verifying and placing a grid's survivors: the local bests of each
+//! anchor checked by the template's placement ([`crate::verify`]),
+//! grouped into instances, each aligned on the meshes around it (its pose
+//! and score); the template's surface samples for that; and an instance
+//! carried to a congruent copy of its part.
 
+use super::prepare::PartSearch;
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
-use crate::instances::Instance;
+use crate::cascade::Survivor;
+use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{PartVoxels, Parts, Scene, ScenePart};
 use crate::template::{TemplateSource, VoxelTemplate};
+
+impl PartSearch<'_> {
+    /// The placements that pass verification, anchor by anchor: each
+    /// anchor's local bests among `survivors`, but for a blob where a copy
+    /// already placed puts this anchor (that copy, seen from another
+    /// anchor).
+    pub(super) fn verify(&self, voxels: &PartVoxels, survivors: &[Survivor]) -> Vec<Verified> {
+        let (template, options) = (&self.template, self.options);
+        let radii = template.radii();
+        let voxel = voxels.grid().spec().voxel_size;
+        let position = |p| voxels.position(p);
+        let mut verified: Vec<Verified> = Vec::new();
+        for (a, verifier) in self.verifiers.iter().enumerate() {
+            let of_anchor: Vec<Survivor> = survivors
+                .iter()
+                .filter(|s| s.anchors & (1 << a) != 0)
+                .copied()
+                .collect();
+            let bests: Vec<Survivor> = local_bests(&of_anchor, position, radii[0])
+                .into_iter()
+                .filter(|b| {
+                    let p = position(b.point);
+                    verified.iter().all(|v| {
+                        v.pose.is_none_or(|pose| {
+                            Rigid::from_rows(&pose)
+                                .apply(template.anchor_position(a))
+                                .distance(p)
+                                > radii[0]
+                        })
+                    })
+                })
+                .collect();
+            let checked = options.backend.map_each(bests.len(), |b| {
+                let v = voxels.skin()[bests[b].point as usize];
+                let placement = verifier.check(
+                    voxels.solid(),
+                    voxels.near_surface(),
+                    voxels.skin(),
+                    v,
+                    options.verify_threshold,
+                    self.two_sided,
+                );
+                let position = voxels.position(bests[b].point) + placement.offset * voxel;
+                Verified {
+                    survivor: bests[b],
+                    score: placement.score(),
+                    position,
+                    pose: Some(placement_transform(
+                        &placement.rotation,
+                        template.center(),
+                        position,
+                    )),
+                }
+            });
+            verified.extend(
+                checked
+                    .into_iter()
+                    .filter(|v| v.score >= options.verify_threshold),
+            );
+        }
+        verified
+    }
+
+    /// The instances `verified` placements make, grouped with the
+    /// `survivors` they gather, aligned on `part`'s meshes, and kept where
+    /// the meshes agree at the exact pose.
+    pub(super) fn place(
+        &self,
+        part: &ScenePart,
+        voxels: &PartVoxels,
+        verified: &[Verified],
+        survivors: &[Survivor],
+    ) -> Vec<Instance> {
+        let options = self.options;
+        let mut instances = group(
+            verified,
+            survivors,
+            |p| voxels.position(p),
+            options.group_radius * self.template.radius(),
+        );
+        align_instances(
+            &mut instances,
+            self.scene,
+            part,
+            voxels,
+            &self.samples,
+            &self.template,
+            self.max_hidden,
+            options.surface_tolerance,
+            options.backend,
+        );
+        // The meshes' verdict at the exact pose.
+        instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
+        instances
+    }
+}
 
 /// Surface samples the template's pose is refined with: a model's whole
 /// surface, or the selected part's within the sphere.
@@ -45,7 +145,7 @@ const ALIGN_SAMPLES: usize = 1024;
 /// scene's there (what lands inside `voxels`' solid is hidden, up to
 /// `max_hidden`).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn align_instances(
+fn align_instances(
     instances: &mut [Instance],
     scene: &Scene,
     part: &ScenePart,

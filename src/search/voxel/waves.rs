@@ -5,7 +5,7 @@
 use crate::cascade::{LayerStats, add_layer_stats};
 use crate::instances::Instance;
 
-use super::report::Timings;
+use crate::search::report::Timings;
 
 /// What the parts searched so far have found.
 #[derive(Default)]

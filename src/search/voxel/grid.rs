@@ -1,0 +1,175 @@
+//! One grid's search (a part's, or a window's of a large part): its
+//! candidate points, the cascade of volume and harmonics layers over them,
+//! then the survivors verified and placed (`place.rs`).
+
+use super::near_vertices::NearVertices;
+use super::parts::Runner;
+use super::prepare::PartSearch;
+use super::waves::Found;
+use super::windows::Window;
+use crate::budget::candidate_bytes;
+use crate::cascade::{LayerStats, Observer, Stage, Survivor, run_cascade};
+use crate::clock::now_ms;
+use crate::descriptor::harmonics::ClutterGuard;
+use crate::descriptor::{HarmonicsDescriptor, LayerBatch, VolumeDescriptor, all_anchors};
+use crate::error::Result;
+use crate::instances::Instance;
+use crate::scene::{PartVoxels, ScenePart};
+use crate::search::options::DescriptorKind;
+use crate::voxel::spaced;
+
+impl PartSearch<'_> {
+    /// The instances on `voxels`, one grid of `part` (its whole, or a
+    /// window whose core holds the candidates).
+    pub(super) async fn grid(
+        &self,
+        part: &ScenePart,
+        voxels: &PartVoxels,
+        window: Option<&Window>,
+        near: Option<&NearVertices>,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Vec<Instance>> {
+        let candidates = self.candidates(voxels, window, near, found);
+        if candidates.is_empty() {
+            // No copy can be anchored here (a slab's plain faces).
+            return Ok(Vec::new());
+        }
+        let mut estimate = runner.held.clone();
+        estimate.add("candidate state", candidate_bytes(candidates.len()));
+        if let Some(near) = near {
+            estimate.add("cells near vertices", near.bytes());
+        }
+        estimate.check(self.scene.memory_budget(), || {
+            format!(
+                "a part has {} candidate points at resolution {}: lower the resolution (they fall with its square), raise the candidate spacing, or raise the memory budget",
+                candidates.len(),
+                self.lattice.resolution
+            )
+        })?;
+        let (survivors, stats) = self.cascade(voxels, candidates, found, runner).await?;
+        let started = now_ms();
+        let verified = self.verify(voxels, &survivors);
+        let instances = self.place(part, voxels, &verified, &survivors);
+        found.add_stats(stats);
+        found.timings.group += now_ms() - started;
+        Ok(instances)
+    }
+
+    /// The skin voxels a copy's anchor may lie at: one per cube of the
+    /// candidate spacing, in the window's core, near a vertex. Counts the
+    /// grid's skin voxels into `found`.
+    fn candidates(
+        &self,
+        voxels: &PartVoxels,
+        window: Option<&Window>,
+        near: Option<&NearVertices>,
+        found: &mut Found,
+    ) -> Vec<u32> {
+        let mut candidates = spaced(voxels.skin(), self.template.candidate_spacing() as u16);
+        if let Some(window) = window {
+            candidates.retain(|&c| window.holds(voxels.skin()[c as usize]));
+        }
+        if let Some(near) = near {
+            candidates.retain(|&c| near.near(voxels.position(c)));
+        }
+        found.skin_voxels += match window {
+            Some(window) => voxels.skin().iter().filter(|&&v| window.holds(v)).count(),
+            None => voxels.skin().len(),
+        };
+        candidates
+    }
+
+    /// The volume and harmonics layers over `candidates`, on the GPU where
+    /// the runner has one: the survivors and each layer's figures. A layer
+    /// the GPU gave back to the CPU is noted in `found`.
+    async fn cascade(
+        &self,
+        voxels: &PartVoxels,
+        candidates: Vec<u32>,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+        let (options, backend) = (self.options, self.options.backend);
+        let radii = self.template.radii();
+        // The solid on the GPU, uploaded as its layers need it.
+        #[cfg(feature = "gpu")]
+        let on_gpu = match runner.queue {
+            Some(queue) => Some(crate::gpu::GpuSolid::queued(queue, voxels.solid())),
+            None => runner
+                .gpu
+                .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid())),
+        };
+        #[cfg(feature = "gpu")]
+        let on_device = on_gpu.is_some();
+        #[cfg(not(feature = "gpu"))]
+        let on_device = false;
+        let volume = VolumeDescriptor::with_balls(
+            voxels.solid(),
+            voxels.skin(),
+            radii,
+            self.balls
+                .iter()
+                .map(|b| match on_device {
+                    // The GPU counts from the runs alone, and a part of a
+                    // wave would hold a copy of them for nothing.
+                    true => b.clone().for_solid(voxels.solid(), backend),
+                    false => b.clone().bind(voxels.solid(), backend),
+                })
+                .collect(),
+            self.template_volume.clone(),
+            options.volume_threshold,
+        )
+        .with_clutter(options.clutter);
+        let harmonics = self.template_harmonics.as_ref().map(|signatures| {
+            HarmonicsDescriptor::new(
+                voxels.solid(),
+                voxels.skin(),
+                &self.transform,
+                radii,
+                signatures.clone(),
+                options.harmonics_threshold,
+                backend,
+            )
+            .with_clutter(ClutterGuard {
+                policy: options.clutter,
+                balls: volume.balls(),
+                templates: volume.templates(),
+            })
+        });
+        let mut stages: Vec<&dyn Stage> = Vec::new();
+        if options.descriptor != DescriptorKind::Harmonics {
+            stages.push(&volume);
+        }
+        if let Some(h) = &harmonics {
+            stages.push(h);
+        }
+        #[cfg(feature = "gpu")]
+        let batch = on_gpu.as_ref().map(|s| s as &dyn LayerBatch);
+        #[cfg(not(feature = "gpu"))]
+        let batch: Option<&dyn LayerBatch> = runner.gpu.map(|never| match *never {});
+        let outcome = run_cascade(
+            &stages,
+            candidates,
+            all_anchors(self.verifiers.len()),
+            backend,
+            batch,
+            &mut SharedObserver(runner.observer),
+        )
+        .await?;
+        if let Some(reason) = stages.iter().find_map(|s| s.batch_failure()) {
+            found.gpu_fallback.get_or_insert(reason);
+        }
+        Ok(outcome)
+    }
+}
+
+/// One observer for parts searched side by side: each layer's report
+/// borrows it in turn.
+struct SharedObserver<'r, 'o>(&'r std::cell::RefCell<&'o mut dyn Observer>);
+
+impl Observer for SharedObserver<'_, '_> {
+    fn on_layer(&mut self, stats: &LayerStats) -> std::ops::ControlFlow<()> {
+        self.0.borrow_mut().on_layer(stats)
+    }
+}

@@ -1,0 +1,115 @@
+//! The voxel pipeline, in the order it runs:
+//! - `prepare`: the template's side, once: its lattice, grid, signatures
+//!   and a verifier per anchor;
+//! - the plan: which parts can hold a copy and which are searched side by
+//!   side (`parts`, `waves`), which copy others and are not searched
+//!   (`congruent_parts`), which are too large for one grid (`windows`);
+//! - `grid`: one grid's cascade of volume and harmonics layers on its skin
+//!   voxels, the candidates thinned to those near a vertex
+//!   (`near_vertices`);
+//! - `place`: the survivors verified by placement, grouped, and aligned on
+//!   the meshes.
+
+mod congruent_parts;
+mod grid;
+mod near_vertices;
+mod parts;
+mod place;
+mod prepare;
+mod waves;
+mod windows;
+
+use std::cell::RefCell;
+
+use super::GpuRef;
+use super::options::MatchOptions;
+use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
+use crate::cascade::Observer;
+use crate::clock::now_ms;
+use crate::error::Result;
+use crate::instances::best_first;
+use crate::scene::Scene;
+use crate::template::TemplateSource;
+use congruent_parts::congruent_parts;
+use place::moved_instance;
+use prepare::PartSearch;
+use waves::Found;
+
+/// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
+/// part by part: each connected part of the scene large enough to hold a
+/// copy is voxelized on its own, so that what touches it or sits in it does
+/// not hide it.
+pub(super) async fn search_voxels(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+    gpu: GpuRef<'_>,
+) -> Result<MatchReport> {
+    let t0 = now_ms();
+    let searcher = PartSearch::new(scene, source, options)?;
+    let parts = searcher.searched_parts()?;
+    let template_ms = now_ms() - t0;
+    // What a part's copies take from it, moved.
+    let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
+    let copies_from = now_ms();
+    let copies = congruent_parts(scene.mesh(), &lists, options.backend);
+    let copies_ms = now_ms() - copies_from;
+    let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
+    let observer = RefCell::new(observer);
+    let searched = searcher
+        .search_parts(&parts, &originals, &observer, gpu)
+        .await?;
+    // In the parts' order, whether searched one by one or side by side.
+    let mut found = Found::default();
+    for (k, copy) in copies.iter().enumerate() {
+        match (copy, &searched[k]) {
+            (Some((original, motion)), _) => {
+                let moved = searched[*original]
+                    .iter()
+                    .flat_map(|f| &f.instances)
+                    .map(|instance| moved_instance(instance, motion));
+                found.instances.extend(moved);
+            }
+            (None, Some(part)) => found.merge(part),
+            (None, None) => {}
+        }
+    }
+    // Best first over all parts, as within one.
+    found.instances.sort_by(best_first);
+    let (template, lattice) = (&searcher.template, &searcher.lattice);
+    Ok(MatchReport {
+        template: TemplateInfo::of(template.center(), template.radius()),
+        instances: found.instances,
+        stages: found.stages,
+        grid: Some(GridInfo {
+            resolution: lattice.resolution,
+            voxel_size: lattice.spec.voxel_size,
+            skin_voxels: found.skin_voxels,
+            windows: found.windows,
+        }),
+        surface: None,
+        gpu: gpu_info(gpu, found.gpu_fallback),
+        timings: Timings {
+            template: template_ms,
+            // Finding which parts copy others is part of matching: their
+            // instances come from it.
+            match_: found.timings.match_ + copies_ms,
+            ..found.timings
+        },
+    })
+}
+
+/// The report's line on the GPU given.
+#[cfg(feature = "gpu")]
+fn gpu_info(gpu: GpuRef<'_>, fallback: Option<String>) -> Option<super::GpuInfo> {
+    gpu.map(|g| super::GpuInfo {
+        adapter: g.description(),
+        fallback,
+    })
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
+    None
+}

@@ -1,0 +1,405 @@
+//! The scene's parts searched: which can hold a copy, in waves side by
+//! side, each on its own grid or window by window when it is too large for
+//! one.
+
+use std::cell::RefCell;
+
+use super::GpuRef;
+use super::near_vertices::NearVertices;
+use super::prepare::PartSearch;
+use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time};
+#[cfg(feature = "gpu")]
+use super::waves::{WAVE_PARTS, share_wave_time};
+use super::windows::{Window, part_windows};
+use crate::budget::voxel_bytes;
+use crate::cascade::{LayerStats, Observer, finished};
+use crate::clock::now_ms;
+use crate::error::{Error, MemoryEstimate, Result};
+use crate::instances::{Instance, merge_duplicates};
+use crate::math::{Aabb, Vec3};
+use crate::scene::{Lattice, PartVoxels, Scene, ScenePart};
+use crate::voxel::WindowedMesh;
+
+/// What one part's search runs with: where it reports its layers, what
+/// computes them besides the CPU, and what the search holds beside it.
+pub(super) struct Runner<'r, 'o> {
+    pub(super) observer: &'r RefCell<&'o mut dyn Observer>,
+    pub(super) gpu: GpuRef<'r>,
+    /// Where its kernels wait for the others of its wave.
+    #[cfg(feature = "gpu")]
+    pub(super) queue: Option<&'r crate::gpu::KernelQueue<'r>>,
+    pub(super) held: MemoryEstimate,
+}
+
+impl<'a> PartSearch<'a> {
+    /// The scene's parts large enough to hold a copy, with their indices;
+    /// fails when voxelizing them one by one would take far more than the
+    /// scene's own grid.
+    pub(super) fn searched_parts(&self) -> Result<Vec<(usize, &'a ScenePart)>> {
+        let scene: &'a Scene = self.scene;
+        let parts: Vec<(usize, &ScenePart)> = scene
+            .parts(self.template.parts())
+            .iter()
+            .enumerate()
+            .filter(|(_, part)| part.radius() >= self.template.min_part_radius())
+            .collect();
+        let reach = self.template.radius() / self.lattice.spec.voxel_size;
+        check_part_volume(scene, &self.lattice, &parts, reach)?;
+        Ok(parts)
+    }
+
+    /// What each part of `originals` (indices into `parts`) found, by
+    /// index: side by side, in waves that fit the memory budget together.
+    /// On the CPU a wave's parts share the threads; on a GPU a layer is one
+    /// submission for all parts of a wave ([`crate::gpu::KernelQueue`]).
+    pub(super) async fn search_parts(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        originals: &[usize],
+        observer: &RefCell<&mut dyn Observer>,
+        gpu: GpuRef<'_>,
+    ) -> Result<Vec<Option<Found>>> {
+        let mut searched: Vec<Option<Found>> = parts.iter().map(|_| None).collect();
+        #[cfg(feature = "gpu")]
+        if let Some(gpu) = gpu {
+            let queue = crate::gpu::KernelQueue::new(gpu);
+            for wave in self.waves(parts, originals, WAVE_PARTS) {
+                let started = now_ms();
+                let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Found>>> = wave
+                    .iter()
+                    .map(|(k, held)| {
+                        let (index, part) = parts[*k];
+                        let mut runner = Runner {
+                            observer,
+                            gpu: Some(gpu),
+                            queue: Some(&queue),
+                            held: held.clone(),
+                        };
+                        Box::pin(async move { self.part(index, part, &mut runner).await })
+                            as crate::descriptor::LocalFuture<'_, Result<Found>>
+                    })
+                    .collect();
+                let founds = match queue.run_together(tasks).await {
+                    Ok(mut founds) => {
+                        share_wave_time(&mut founds, now_ms() - started);
+                        founds
+                    }
+                    // Together past the budget: one by one, as they would
+                    // have run without the GPU.
+                    Err(Error::OverBudget { .. }) if wave.len() > 1 => {
+                        let mut founds = Vec::with_capacity(wave.len());
+                        for (k, _) in &wave {
+                            let (index, part) = parts[*k];
+                            let mut runner = Runner {
+                                observer,
+                                gpu: Some(gpu),
+                                queue: None,
+                                held: self.held.clone(),
+                            };
+                            founds.push(self.part(index, part, &mut runner).await?);
+                        }
+                        founds
+                    }
+                    Err(e) => return Err(e),
+                };
+                for ((k, _), found) in wave.iter().zip(founds) {
+                    searched[*k] = Some(found);
+                }
+            }
+            return Ok(searched);
+        }
+        for wave in self.waves(parts, originals, CPU_WAVE_PARTS) {
+            if let [(k, _)] = wave[..] {
+                let (index, part) = parts[k];
+                let mut runner = Runner {
+                    observer,
+                    gpu,
+                    #[cfg(feature = "gpu")]
+                    queue: None,
+                    held: self.held.clone(),
+                };
+                searched[k] = Some(self.part(index, part, &mut runner).await?);
+                continue;
+            }
+            for ((k, _), found) in wave.iter().zip(self.cpu_wave(parts, &wave, observer)?) {
+                searched[*k] = Some(found);
+            }
+        }
+        Ok(searched)
+    }
+
+    /// The parts of `wave` searched side by side on the CPU's threads, each
+    /// with its own threads inside as well: a small part keeps few threads
+    /// busy alone (a handful of blobs to verify, one instance to align).
+    /// Each part's layers are reported once the wave is done, in the
+    /// parts' order, and its times are shares of the wave's wall time.
+    fn cpu_wave(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        wave: &[(usize, MemoryEstimate)],
+        observer: &RefCell<&mut dyn Observer>,
+    ) -> Result<Vec<Found>> {
+        let started = now_ms();
+        let runs = self.options.backend.map_each(wave.len(), |i| {
+            let (k, held) = &wave[i];
+            let (index, part) = parts[*k];
+            let mut layers = Vec::new();
+            let found = {
+                let mut collect = |s: &LayerStats| {
+                    layers.push(s.clone());
+                    std::ops::ControlFlow::Continue(())
+                };
+                let own: RefCell<&mut dyn Observer> = RefCell::new(&mut collect);
+                let mut runner = Runner {
+                    observer: &own,
+                    gpu: None,
+                    #[cfg(feature = "gpu")]
+                    queue: None,
+                    held: held.clone(),
+                };
+                finished(self.part(index, part, &mut runner))
+            };
+            found.map(|found| (found, layers))
+        });
+        let wall = now_ms() - started;
+        let mut founds = Vec::with_capacity(runs.len());
+        for run in runs {
+            let (found, layers) = run?;
+            for layer in &layers {
+                if observer.borrow_mut().on_layer(layer).is_break() {
+                    return Err(Error::Cancelled);
+                }
+            }
+            founds.push(found);
+        }
+        share_cpu_wave_time(&mut founds, wall);
+        Ok(founds)
+    }
+
+    /// `originals` in waves (see [`plan_waves`]), each part with what the
+    /// search holds beside it: the template's side and the other parts of
+    /// its wave.
+    fn waves(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        originals: &[usize],
+        max_parts: usize,
+    ) -> Vec<Vec<(usize, MemoryEstimate)>> {
+        let reach = self.template.radius() / self.lattice.spec.voxel_size;
+        let grids: Vec<Option<u64>> = originals
+            .iter()
+            .map(|&k| {
+                let (index, part) = parts[k];
+                match self.template.voxels_of_part(index) {
+                    // A selection's own part is voxelized already.
+                    Some(_) => Some(0),
+                    None if self.scene.fits_one_grid(part, &self.lattice, reach) => self
+                        .scene
+                        .part_spec(part, &self.lattice, reach)
+                        .ok()
+                        .map(|spec| voxel_bytes(&spec)),
+                    None => None,
+                }
+            })
+            .collect();
+        let free = self.scene.memory_budget().saturating_sub(self.held.total());
+        plan_waves(&grids, free, max_parts)
+            .into_iter()
+            .map(|wave| {
+                wave.into_iter()
+                    .map(|(n, others)| {
+                        let mut held = self.held.clone();
+                        if others > 0 {
+                            held.add("the other parts searched beside it", others);
+                        }
+                        (originals[n], held)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The instances on scene part `index`: on its own grid, or window by
+    /// window when it is too large for one.
+    async fn part(
+        &self,
+        index: usize,
+        part: &ScenePart,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Found> {
+        let started = now_ms();
+        let mut found = Found::default();
+        found.instances = self.part_instances(index, part, &mut found, runner).await?;
+        // Matching is all of a part's search but voxelizing and verifying:
+        // its cells near vertices and its mesh too, as a wave of parts on
+        // the GPU (which can only time the whole) counts it.
+        found.timings.match_ =
+            (now_ms() - started - found.timings.voxelize - found.timings.group).max(0.0);
+        Ok(found)
+    }
+
+    /// [`PartSearch::part`]'s instances; the rest of what it found goes
+    /// to `found`.
+    async fn part_instances(
+        &self,
+        index: usize,
+        part: &ScenePart,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Vec<Instance>> {
+        let reach = self.template.radius() / self.lattice.spec.voxel_size;
+        let near = NearVertices::new(
+            self.scene.mesh(),
+            part.triangles(),
+            part.bounds(),
+            self.vertex_reach,
+            self.options.backend,
+        );
+        let windows = part_windows(self.scene, part, &self.lattice, reach, near.as_ref())?;
+        let Some(windows) = windows else {
+            let fresh;
+            let voxels = match self.template.voxels_of_part(index) {
+                Some(voxels) => voxels,
+                None => {
+                    fresh = self
+                        .scene
+                        .voxelize_part(part, &self.lattice, reach, &runner.held)?;
+                    found.timings.voxelize += fresh.voxelize_ms();
+                    &fresh
+                }
+            };
+            return self
+                .grid(part, voxels, None, near.as_ref(), found, runner)
+                .await;
+        };
+        self.windowed_part(part, &windows, near.as_ref(), found, runner)
+            .await
+    }
+
+    /// The instances on a part too large for one grid, searched in
+    /// `windows`.
+    async fn windowed_part(
+        &self,
+        part: &ScenePart,
+        windows: &[Window],
+        near: Option<&NearVertices>,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Vec<Instance>> {
+        let backend = self.options.backend;
+        let windowed = WindowedMesh::new(self.scene.mesh().subset(part.triangles()), backend);
+        let mut held = runner.held.clone();
+        held.add("a large part's mesh for its windows", windowed.bytes());
+        let mut instances: Vec<Instance> = Vec::new();
+        for window in windows {
+            // No copy can be anchored here.
+            if near.is_some_and(|n| !n.any_in(&window.core_bounds())) {
+                continue;
+            }
+            let fitted;
+            let window = match near {
+                Some(near) => {
+                    let Some(fit) = fitted_to_content(window, near, &windowed) else {
+                        continue;
+                    };
+                    fitted = fit;
+                    &fitted
+                }
+                None => window,
+            };
+            let mut estimate = held.clone();
+            estimate.add(
+                "a window's voxel grids and count pyramid",
+                voxel_bytes(&window.spec),
+            );
+            estimate.check(self.scene.memory_budget(), || {
+                "a large part's window does not fit beside the search: raise the memory budget"
+                    .into()
+            })?;
+            let voxels = PartVoxels::build_window(&windowed, &window.spec, backend);
+            found.windows += 1;
+            found.timings.voxelize += voxels.voxelize_ms();
+            instances.extend(
+                self.grid(part, &voxels, Some(window), near, found, runner)
+                    .await?,
+            );
+        }
+        // A copy whose points fall in two cores is found from both.
+        Ok(merge_duplicates(
+            instances,
+            self.options.group_radius * self.template.radius(),
+        ))
+    }
+}
+
+/// `window` cut down to where a candidate can lie, or `None` where none
+/// can. A candidate the vertex test passes lies within its farthest
+/// distance of a vertex, so of a triangle that meets the core grown by it:
+/// the core is cut down to those triangles' box, grown by it (a window over
+/// a terrain or a scan is mostly empty space above and below the sheet).
+fn fitted_to_content(
+    window: &Window,
+    near: &NearVertices,
+    windowed: &WindowedMesh,
+) -> Option<Window> {
+    let core = window.core_bounds();
+    let far = Vec3::splat(near.farthest());
+    let grown = Aabb {
+        min: core.min - far,
+        max: core.max + far,
+    };
+    let content = windowed.content_in(&grown)?;
+    window.fitted(&Aabb {
+        min: content.min - far,
+        max: content.max + far,
+    })
+}
+
+/// The parts' grids may hold this many times the voxels of the whole
+/// scene's: apart, parts fill less than their common box, and padding and
+/// nesting add some; a soup of large crossing triangles, each a part,
+/// would take thousands of times as long as the scene.
+const MAX_PART_VOLUME_FACTOR: u32 = 8;
+
+/// Fails when voxelizing `parts` one by one would fill far more voxels than
+/// the whole scene holds.
+fn check_part_volume(
+    scene: &Scene,
+    lattice: &Lattice,
+    parts: &[(usize, &ScenePart)],
+    reach: f64,
+) -> Result<()> {
+    // Counted in f64 from the boxes: a part past a grid's side is searched
+    // in windows, and still counts whole here.
+    let voxel = lattice.spec.voxel_size;
+    let voxels: f64 = parts
+        .iter()
+        .map(|(_, part)| match scene.part_spec(part, lattice, reach) {
+            Ok(spec) => spec.voxel_count() as f64,
+            Err(_) => {
+                let e = part.bounds().extent();
+                [e.x, e.y, e.z].iter().map(|e| e / voxel + 3.0).product()
+            }
+        })
+        .sum();
+    // Against the scene's box padded as a part's is: a flat scene (tiles
+    // on a floor) has a flat grid, and every part's padding alone passed
+    // it many times over.
+    let scene_extent = scene.mesh().bounds().extent();
+    let padded_scene: f64 = [scene_extent.x, scene_extent.y, scene_extent.z]
+        .iter()
+        .map(|e| e / voxel + 2.0 * reach + 3.0)
+        .product();
+    let limit =
+        f64::from(MAX_PART_VOLUME_FACTOR) * padded_scene.max(lattice.spec.voxel_count() as f64);
+    if voxels <= limit {
+        return Ok(());
+    }
+    Err(Error::PartsOverlap {
+        voxels,
+        limit,
+        factor: MAX_PART_VOLUME_FACTOR,
+        resolution: lattice.resolution,
+        advice: "weld the mesh so that a part's triangles share vertices, or search a region of the scene".into(),
+    })
+}

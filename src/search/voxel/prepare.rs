@@ -1,0 +1,201 @@
+//! The template's side of a voxel search, prepared once for every part:
+//! the lattice it is searched on, its grid and signatures, a verifier per
+//! anchor, the samples its poses are refined with, and what all of that
+//! holds of the memory budget.
+
+use super::near_vertices::{self, template_gap};
+use super::place::template_samples;
+use crate::align::SurfaceSamples;
+use crate::budget::{add_ball_tables, voxel_bytes};
+use crate::descriptor::harmonics::Signature as HarmonicsSignature;
+use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::error::{MemoryEstimate, Result};
+use crate::math::Vec3;
+use crate::scene::{Lattice, Parts, Scene};
+use crate::search::options::{DescriptorKind, MatchOptions};
+use crate::template::{TemplateSource, VoxelTemplate};
+use crate::verify::Verifier;
+use crate::voxel::Ball;
+
+/// What searching one part needs: the template's side, prepared once.
+pub(super) struct PartSearch<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) options: &'a MatchOptions,
+    pub(super) template: VoxelTemplate,
+    pub(super) lattice: Lattice,
+    /// The volume balls' tables, bound to each grid's layout.
+    pub(super) balls: Vec<Ball>,
+    /// Per anchor: the template's volume and harmonics signatures.
+    pub(super) template_volume: Vec<Vec<f64>>,
+    pub(super) template_harmonics: Option<Vec<Vec<HarmonicsSignature>>>,
+    pub(super) transform: SphericalTransform,
+    /// Per anchor: the verifier placed by it.
+    pub(super) verifiers: Vec<Verifier>,
+    pub(super) samples: SurfaceSamples,
+    pub(super) max_hidden: f64,
+    /// A part is one component: what the template does not explain of it
+    /// is the copy's own (see `Verifier::check`).
+    pub(super) two_sided: bool,
+    /// How far from a vertex of its part a copy's anchor can lie.
+    pub(super) vertex_reach: f64,
+    /// What the search holds besides a part's grids.
+    pub(super) held: MemoryEstimate,
+}
+
+impl<'a> PartSearch<'a> {
+    /// Prepares `source` for searching `scene`; fails when the template's
+    /// own structures pass the memory budget.
+    pub(super) fn new(
+        scene: &'a Scene,
+        source: &TemplateSource,
+        options: &'a MatchOptions,
+    ) -> Result<PartSearch<'a>> {
+        // A small template refines the grid until it spans enough voxels.
+        let lattice = if options.template_voxels > 0.0 {
+            scene.lattice_for(
+                VoxelTemplate::bounding_radius(source),
+                options.template_voxels,
+            )?
+        } else {
+            scene.lattice()
+        };
+        let template = VoxelTemplate::new(source, scene, &lattice, options)?;
+        let voxel = lattice.spec.voxel_size;
+        let radii_voxels: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
+        let held = search_estimate(scene, &template, &radii_voxels);
+        held.check(scene.memory_budget(), || {
+            too_much_for_template(&radii_voxels, &lattice)
+        })?;
+        let transform = SphericalTransform::new();
+        // The balls' tables are built once: read at the template's one
+        // point, then bound to each part's layout.
+        let balls = VolumeDescriptor::unbound_balls(template.radii(), voxel, options.backend);
+        let (template_volume, template_harmonics) =
+            signatures(&template, &balls, &transform, options);
+        let max_hidden =
+            options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. }));
+        let verifiers = verifiers(&template, &radii_voxels, max_hidden, options);
+        let vertex_reach = near_vertices::reach(
+            anchor_gap(scene, source, &template),
+            template.candidate_spacing(),
+            voxel,
+            template.radii()[0],
+        );
+        Ok(PartSearch {
+            scene,
+            options,
+            balls,
+            template_volume,
+            template_harmonics,
+            transform,
+            verifiers,
+            samples: template_samples(source, scene, &template),
+            max_hidden,
+            two_sided: template.parts() == Parts::Components,
+            vertex_reach,
+            held,
+            template,
+            lattice,
+        })
+    }
+}
+
+/// Per anchor, the template's volume signature and, unless only the volume
+/// is searched, its harmonics one.
+fn signatures(
+    template: &VoxelTemplate,
+    balls: &[Ball],
+    transform: &SphericalTransform,
+    options: &MatchOptions,
+) -> (Vec<Vec<f64>>, Option<Vec<Vec<HarmonicsSignature>>>) {
+    let (solid, backend) = (template.voxels().solid(), options.backend);
+    let volume = template
+        .anchors()
+        .iter()
+        .map(|&a| VolumeDescriptor::describe_with(solid, a, balls, backend))
+        .collect();
+    let harmonics = (options.descriptor != DescriptorKind::Volume).then(|| {
+        template
+            .anchors()
+            .iter()
+            .map(|&a| HarmonicsDescriptor::describe(solid, a, template.radii(), transform, backend))
+            .collect()
+    });
+    (volume, harmonics)
+}
+
+/// A verifier placed by each of the template's anchors.
+fn verifiers(
+    template: &VoxelTemplate,
+    radii_voxels: &[f64],
+    max_hidden: f64,
+    options: &MatchOptions,
+) -> Vec<Verifier> {
+    let voxels = template.voxels();
+    template
+        .anchors()
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| {
+            Verifier::new(
+                voxels.solid(),
+                voxels.skin(),
+                voxels.near_surface(),
+                a,
+                template.center_offset(i),
+                radii_voxels,
+                max_hidden,
+                options.backend,
+            )
+        })
+        .collect()
+}
+
+/// How far the template's anchors lie from a vertex of the template: a
+/// copy's anchor lies as near a vertex of its part.
+fn anchor_gap(scene: &Scene, source: &TemplateSource, template: &VoxelTemplate) -> f64 {
+    let anchor_points: Vec<Vec3> = (0..template.anchors().len())
+        .map(|a| template.anchor_position(a))
+        .collect();
+    match source {
+        TemplateSource::Model(model) => template_gap(
+            &anchor_points,
+            (0..model.triangles().len()).flat_map(|t| model.corners(t)),
+        ),
+        TemplateSource::Selection { .. } => {
+            let part = template
+                .scene_part()
+                .expect("a selection lies on a scene part");
+            let mesh = scene.mesh();
+            template_gap(
+                &anchor_points,
+                scene.parts(Parts::Components)[part]
+                    .triangles()
+                    .iter()
+                    .flat_map(|&t| mesh.corners(t as usize)),
+            )
+        }
+    }
+}
+
+/// What a voxel search holds besides the part it searches: the scene's
+/// mesh, the template's voxel grids and the run tables of the volume and
+/// verification balls.
+fn search_estimate(scene: &Scene, template: &VoxelTemplate, radii: &[f64]) -> MemoryEstimate {
+    let mut estimate = scene.mesh_estimate();
+    estimate.add(
+        "the template's voxel grids",
+        voxel_bytes(template.voxels().grid().spec()),
+    );
+    add_ball_tables(&mut estimate, radii);
+    estimate
+}
+
+/// The advice when the template's own structures pass the budget.
+fn too_much_for_template(radii: &[f64], lattice: &Lattice) -> String {
+    let outer = radii.last().copied().unwrap_or_default();
+    format!(
+        "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
+        lattice.resolution
+    )
+}
