@@ -45,6 +45,61 @@ fn choose_anchor(
     )
 }
 
+/// The candidate spacing searched with: every skin voxel where the anchor
+/// is rough, its neighbours being no stand-ins for it.
+fn candidate_spacing(anchor: &Anchor, options: &MatchOptions) -> u32 {
+    if anchor.rough {
+        1
+    } else {
+        options.candidate_spacing
+    }
+}
+
+/// Fails when voxelizing `model` on `spec`, and turned within the cube
+/// around its bounding `sphere` for its anchor's test, would take too long
+/// or pass the memory budget.
+fn check_model_fits(
+    model: &TriMesh,
+    sphere: &Sphere,
+    spec: &GridSpec,
+    scene: &Scene,
+    lattice: &Lattice,
+) -> Result<()> {
+    let voxel_size = lattice.spec.voxel_size;
+    let turned = GridSpec::around(
+        Aabb {
+            min: sphere.center - Vec3::splat(sphere.radius),
+            max: sphere.center + Vec3::splat(sphere.radius),
+        },
+        voxel_size,
+    )?;
+    check_voxel_work(
+        "template",
+        model,
+        voxel_size,
+        lattice.resolution,
+        scene.max_voxel_work(),
+        scene.backend(),
+    )?;
+    let mut estimate = scene.mesh_estimate();
+    estimate
+        .add(
+            "the template's mesh",
+            mesh_bytes(model.positions().len(), model.triangles().len()),
+        )
+        .add("the template's voxel grids", voxel_bytes(spec))
+        .add(
+            "the template turned (its anchor's test)",
+            voxel_bytes(&turned),
+        );
+    estimate.check(scene.memory_budget(), || {
+        format!(
+            "lower the resolution (now {}), or raise the memory budget",
+            lattice.resolution
+        )
+    })
+}
+
 /// A template prepared against a scene.
 pub struct VoxelTemplate {
     center: Vec3,
@@ -83,189 +138,154 @@ impl VoxelTemplate {
         lattice: &Lattice,
         options: &MatchOptions,
     ) -> Result<VoxelTemplate> {
+        check_layers(options.layers)?;
+        let template = match source {
+            TemplateSource::Model(model) => Self::of_model(model, scene, lattice, options)?,
+            &TemplateSource::Selection { center, radius } => {
+                Self::of_selection(center, radius, scene, lattice, options)?
+            }
+        };
+        let first = template.radius / options.layers as f64 / lattice.spec.voxel_size;
+        if first < MIN_RADIUS_VOXELS {
+            return Err(too_small(first, lattice.resolution));
+        }
+        Ok(template)
+    }
+
+    /// A separate model, voxelized on its own grid of the lattice.
+    fn of_model(
+        model: &TriMesh,
+        scene: &Scene,
+        lattice: &Lattice,
+        options: &MatchOptions,
+    ) -> Result<VoxelTemplate> {
         let (layers, backend) = (options.layers, options.backend);
-        check_layers(layers)?;
         let voxel_size = lattice.spec.voxel_size;
-        let mut whole_part = false;
-        let (center, radius, voxels, scene_part, parts, min_part_radius, anchor, anchors) =
-            match source {
-                TemplateSource::Model(model) => {
-                    let sphere = bounding_sphere(model);
-                    check_extent(2.0 * sphere.radius, scene, false)?;
-                    let parts = if connected_components(model, scene.backend()).len() == 1 {
-                        Parts::Components
-                    } else {
-                        Parts::OverlappingBoxes
-                    };
-                    let spec = GridSpec::around(model.bounds(), voxel_size)?;
-                    // The anchor's test voxelizes it turned: within the cube
-                    // around its bounding sphere.
-                    let turned = GridSpec::around(
-                        Aabb {
-                            min: sphere.center - Vec3::splat(sphere.radius),
-                            max: sphere.center + Vec3::splat(sphere.radius),
-                        },
-                        voxel_size,
-                    )?;
-                    check_voxel_work(
-                        "template",
-                        model,
-                        voxel_size,
-                        lattice.resolution,
-                        scene.max_voxel_work(),
-                        scene.backend(),
-                    )?;
-                    let mut estimate = scene.mesh_estimate();
-                    estimate
-                        .add(
-                            "the template's mesh",
-                            mesh_bytes(model.positions().len(), model.triangles().len()),
-                        )
-                        .add("the template's voxel grids", voxel_bytes(&spec))
-                        .add(
-                            "the template turned (its anchor's test)",
-                            voxel_bytes(&turned),
-                        );
-                    estimate.check(scene.memory_budget(), || {
-                        format!(
-                            "lower the resolution (now {}), or raise the memory budget",
-                            lattice.resolution
-                        )
-                    })?;
-                    let voxels = PartVoxels::build(model, &spec, backend);
-                    // The surface of the template is the boundary of its solid:
-                    // with overlapping shells, the nearest point of a mesh may be
-                    // buried inside another shell. So: the nearest skin voxel,
-                    // then the mesh point nearest to it.
-                    let nearest = nearest_voxel(&spec, voxels.skin(), sphere.center).ok_or(
-                        Error::NothingVoxelized {
-                            what: "template",
-                            voxel_size,
-                        },
-                    )?;
-                    let center = model.closest_point(spec.center(nearest)).point;
-                    let radius = model
-                        .positions()
-                        .iter()
-                        .map(|&p| from_f32(p).distance(center))
-                        .fold(0.0, f64::max);
-                    let anchor =
-                        choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
-                    // Where c_T's descriptors drift, a copy lost at the
-                    // anchor chosen instead may be found at another.
-                    let mut anchors = vec![anchor.voxel];
-                    if !anchor.steady {
-                        anchors.extend(further_anchors(
-                            model,
-                            &voxels,
-                            anchor.voxel,
-                            &evenly_spaced(radius, layers),
-                            Thresholds::of(options),
-                            options.candidate_spacing,
-                            backend,
-                        )?);
-                    }
-                    let min_part_radius = PART_RADIUS_SLACK * sphere.radius;
-                    (
-                        center,
-                        radius,
-                        voxels,
-                        None,
-                        parts,
-                        min_part_radius,
-                        anchor,
-                        anchors,
-                    )
-                }
-                &TemplateSource::Selection { center, radius } => {
-                    let snapped = snap_selection(scene, center, radius)?;
-                    check_extent(radius, scene, true)?;
-                    let nearest = scene.mesh().closest_point(snapped);
-                    let part = scene.part_of_triangle(nearest.triangle);
-                    // The search's ball tables first: they grow faster with the
-                    // radius than the part's grid.
-                    let mut held = scene.mesh_estimate();
-                    let radii_voxels: Vec<f64> = evenly_spaced(radius, layers)
-                        .iter()
-                        .map(|r| r / voxel_size)
-                        .collect();
-                    add_ball_tables(&mut held, &radii_voxels);
-                    held.check(scene.memory_budget(), || {
-                    format!(
-                        "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
-                        radius / voxel_size,
-                        lattice.resolution
-                    )
-                })?;
-                    let selected = &scene.parts(Parts::Components)[part];
-                    whole_part = scene.fits_one_grid(selected, lattice, radius / voxel_size);
-                    let voxels = if whole_part {
-                        scene.voxelize_part(selected, lattice, radius / voxel_size, &held)?
-                    } else {
-                        // A part too large for one grid: the sphere's window.
-                        let sphere = Aabb {
-                            min: snapped - Vec3::splat(radius),
-                            max: snapped + Vec3::splat(radius),
-                        };
-                        scene.voxelize_around(
-                            selected,
-                            lattice,
-                            sphere,
-                            radius / voxel_size,
-                            &held,
-                        )?
-                    };
-                    let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped)
-                        .ok_or(Error::NothingVoxelized {
-                            what: "selected part",
-                            voxel_size,
-                        })?;
-                    let anchor = choose_anchor(None, &voxels, nearest, radius, layers, options)?;
-                    // The selected material holds c_T and every selected vertex,
-                    // so its bounding sphere is at least half their distance.
-                    let mesh = scene.mesh();
-                    let reach = scene.parts(Parts::Components)[part]
-                        .triangles()
-                        .iter()
-                        .flat_map(|&t| mesh.corners(t as usize))
-                        .map(|p| p.distance(snapped))
-                        .filter(|&d| d <= radius)
-                        .fold(0.0, f64::max);
-                    let min_part_radius = PART_RADIUS_SLACK * reach / 2.0;
-                    // One anchor: another, away from c_T, would read beyond the
-                    // sphere, material the selection did not take.
-                    (
-                        snapped,
-                        radius,
-                        voxels,
-                        Some(part),
-                        Parts::Components,
-                        min_part_radius,
-                        anchor,
-                        vec![anchor.voxel],
-                    )
-                }
-            };
-        let first = radius / layers as f64;
-        if first / voxel_size < MIN_RADIUS_VOXELS {
-            return Err(too_small(first / voxel_size, lattice.resolution));
+        let sphere = bounding_sphere(model);
+        check_extent(2.0 * sphere.radius, scene, false)?;
+        let parts = if connected_components(model, scene.backend()).len() == 1 {
+            Parts::Components
+        } else {
+            Parts::OverlappingBoxes
+        };
+        let spec = GridSpec::around(model.bounds(), voxel_size)?;
+        check_model_fits(model, &sphere, &spec, scene, lattice)?;
+        let voxels = PartVoxels::build(model, &spec, backend);
+        // The surface of the template is the boundary of its solid: with
+        // overlapping shells, the nearest point of a mesh may be buried
+        // inside another shell. So: the nearest skin voxel, then the mesh
+        // point nearest to it.
+        let nearest =
+            nearest_voxel(&spec, voxels.skin(), sphere.center).ok_or(Error::NothingVoxelized {
+                what: "template",
+                voxel_size,
+            })?;
+        let center = model.closest_point(spec.center(nearest)).point;
+        let radius = model
+            .positions()
+            .iter()
+            .map(|&p| from_f32(p).distance(center))
+            .fold(0.0, f64::max);
+        let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
+        // Where c_T's descriptors drift, a copy lost at the anchor chosen
+        // instead may be found at another.
+        let mut anchors = vec![anchor.voxel];
+        if !anchor.steady {
+            anchors.extend(further_anchors(
+                model,
+                &voxels,
+                anchor.voxel,
+                &evenly_spaced(radius, layers),
+                Thresholds::of(options),
+                options.candidate_spacing,
+                backend,
+            )?);
         }
         Ok(VoxelTemplate {
             center,
             radius,
             radii: evenly_spaced(radius, layers),
             voxels,
-            scene_part,
-            whole_part,
+            scene_part: None,
+            whole_part: false,
             parts,
-            min_part_radius,
+            min_part_radius: PART_RADIUS_SLACK * sphere.radius,
             anchors,
-            // Neighbours of a rough anchor are no stand-ins for it.
-            candidate_spacing: if anchor.rough {
-                1
-            } else {
-                options.candidate_spacing
+            candidate_spacing: candidate_spacing(&anchor, options),
+        })
+    }
+
+    /// The scene's material within the sphere at `center` of `radius`:
+    /// the part it lies on, voxelized whole where it fits one grid, else
+    /// the sphere's window of it.
+    fn of_selection(
+        center: [f64; 3],
+        radius: f64,
+        scene: &Scene,
+        lattice: &Lattice,
+        options: &MatchOptions,
+    ) -> Result<VoxelTemplate> {
+        let voxel_size = lattice.spec.voxel_size;
+        let snapped = snap_selection(scene, center, radius)?;
+        check_extent(radius, scene, true)?;
+        let part = scene.part_of_triangle(scene.mesh().closest_point(snapped).triangle);
+        // The search's ball tables first: they grow faster with the radius
+        // than the part's grid.
+        let mut held = scene.mesh_estimate();
+        let radii_voxels: Vec<f64> = evenly_spaced(radius, options.layers)
+            .iter()
+            .map(|r| r / voxel_size)
+            .collect();
+        add_ball_tables(&mut held, &radii_voxels);
+        held.check(scene.memory_budget(), || {
+            format!(
+                "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
+                radius / voxel_size,
+                lattice.resolution
+            )
+        })?;
+        let selected = &scene.parts(Parts::Components)[part];
+        let whole_part = scene.fits_one_grid(selected, lattice, radius / voxel_size);
+        let voxels = if whole_part {
+            scene.voxelize_part(selected, lattice, radius / voxel_size, &held)?
+        } else {
+            // A part too large for one grid: the sphere's window.
+            let sphere = Aabb {
+                min: snapped - Vec3::splat(radius),
+                max: snapped + Vec3::splat(radius),
+            };
+            scene.voxelize_around(selected, lattice, sphere, radius / voxel_size, &held)?
+        };
+        let nearest = nearest_voxel(voxels.grid().spec(), voxels.skin(), snapped).ok_or(
+            Error::NothingVoxelized {
+                what: "selected part",
+                voxel_size,
             },
+        )?;
+        let anchor = choose_anchor(None, &voxels, nearest, radius, options.layers, options)?;
+        // The selected material holds c_T and every selected vertex, so its
+        // bounding sphere is at least half their distance.
+        let mesh = scene.mesh();
+        let reach = selected
+            .triangles()
+            .iter()
+            .flat_map(|&t| mesh.corners(t as usize))
+            .map(|p| p.distance(snapped))
+            .filter(|&d| d <= radius)
+            .fold(0.0, f64::max);
+        Ok(VoxelTemplate {
+            center: snapped,
+            radius,
+            radii: evenly_spaced(radius, options.layers),
+            voxels,
+            scene_part: Some(part),
+            whole_part,
+            parts: Parts::Components,
+            min_part_radius: PART_RADIUS_SLACK * reach / 2.0,
+            // One anchor: another, away from c_T, would read beyond the
+            // sphere, material the selection did not take.
+            anchors: vec![anchor.voxel],
+            candidate_spacing: candidate_spacing(&anchor, options),
         })
     }
 
