@@ -76,6 +76,7 @@ compile_error!("wgpu has no backend on WASI: build wasm32-wasip1 without the gpu
 pub(crate) mod instances;
 pub mod math;
 pub mod mesh;
+pub(crate) mod options;
 pub mod scene;
 pub mod search;
 pub mod template;

@@ -1,13 +1,13 @@
 //! The curvature pipeline: the scene's welded mesh, its vertices as
 //! candidates, the mirror test, then grouping.
 
-use super::options::MatchOptions;
+use crate::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
 use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
-use crate::cascade::{Observer, run_cascade_in_chunks};
+use crate::cascade::{LayerStats, Observer, Survivor, run_cascade_in_chunks};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
-use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
+use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, Surface, VertexSample};
 use crate::error::MemoryEstimate;
 use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
@@ -48,42 +48,7 @@ pub(super) fn search_curvature(
     let curvature =
         CurvatureDescriptor::new(surface, radii, &gaussians, options.curvature_threshold);
     let t1 = now_ms();
-    let spacing = options.curvature_spacing * radii[0];
-    let (survivors, stats) = match VertexSample::of(surface, spacing) {
-        Some(sample) => {
-            let loose = CurvatureDescriptor::new(
-                surface,
-                radii,
-                &gaussians,
-                options.curvature_threshold * SAMPLE_SLACK,
-            )
-            .named("curvature-sample");
-            let (near, mut stats) = run_cascade_in_chunks(
-                &[&loose],
-                sample.vertices,
-                CHUNK,
-                1,
-                options.backend,
-                observer,
-            )?;
-            let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
-            let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
-            let (survivors, exact) = run_cascade_in_chunks(
-                &[&curvature],
-                candidates,
-                CHUNK,
-                1,
-                options.backend,
-                observer,
-            )?;
-            stats.extend(exact);
-            (survivors, stats)
-        }
-        None => {
-            let every = surface.used_vertices().collect();
-            run_cascade_in_chunks(&[&curvature], every, CHUNK, 1, options.backend, observer)?
-        }
-    };
+    let (survivors, stats) = cascade(surface, radii, &curvature, &gaussians, options, observer)?;
     let t2 = now_ms();
     let position = |v| surface.position(v);
     let bests: Vec<Verified> = local_bests(&survivors, position, radii[0])
@@ -123,6 +88,52 @@ pub(super) fn search_curvature(
         gpu: None,
         timings,
     })
+}
+
+/// The survivors of the `curvature` layers over the surface's vertices,
+/// and each layer's figures. On a surface dense enough, a sample of its
+/// vertices goes through looser layers first, and only the vertices near
+/// the sample's survivors are candidates.
+fn cascade(
+    surface: &Surface,
+    radii: &[f64],
+    curvature: &CurvatureDescriptor<'_>,
+    gaussians: &[f64],
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+    let spacing = options.curvature_spacing * radii[0];
+    let Some(sample) = VertexSample::of(surface, spacing) else {
+        let every = surface.used_vertices().collect();
+        return run_cascade_in_chunks(&[curvature], every, CHUNK, 1, options.backend, observer);
+    };
+    let loose = CurvatureDescriptor::new(
+        surface,
+        radii,
+        gaussians,
+        options.curvature_threshold * SAMPLE_SLACK,
+    )
+    .named("curvature-sample");
+    let (near, mut stats) = run_cascade_in_chunks(
+        &[&loose],
+        sample.vertices,
+        CHUNK,
+        1,
+        options.backend,
+        observer,
+    )?;
+    let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
+    let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
+    let (survivors, exact) = run_cascade_in_chunks(
+        &[curvature],
+        candidates,
+        CHUNK,
+        1,
+        options.backend,
+        observer,
+    )?;
+    stats.extend(exact);
+    Ok((survivors, stats))
 }
 
 /// Checks, before the welded surfaces are built, that a curvature search

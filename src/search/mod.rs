@@ -1,20 +1,20 @@
 //! The whole search: template, cascade, verification, grouping, with
-//! timings. Two pipelines share the cascade: the voxel one (`voxel.rs`: volume
+//! timings. Two pipelines share the cascade: the voxel one (`voxel/`: volume
 //! and harmonics on the scene's skin voxels) and the curvature one
 //! (`curvature.rs`: on the welded mesh's vertices).
 
 mod curvature;
-mod options;
 mod report;
 mod voxel;
 
-pub use options::{DescriptorKind, MatchOptions};
+pub use crate::options::{DescriptorKind, MatchOptions};
 pub use report::{GpuInfo, GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
 
 use crate::cascade::Observer;
 use crate::error::Result;
 use crate::scene::Scene;
 use crate::template::TemplateSource;
+use voxel::GpuRef;
 
 /// Searches `scene` for every occurrence of `source`.
 pub fn search(
@@ -70,13 +70,6 @@ pub async fn search_on_gpu_async(
 ) -> Result<MatchReport> {
     search_with(scene, source, options, observer, Some(gpu)).await
 }
-
-/// The GPU a voxel search may use (nothing can be given without the
-/// `gpu` feature).
-#[cfg(feature = "gpu")]
-type GpuRef<'a> = Option<&'a crate::gpu::Gpu>;
-#[cfg(not(feature = "gpu"))]
-type GpuRef<'a> = Option<&'a std::convert::Infallible>;
 
 #[cfg(test)]
 mod tests {

@@ -22,7 +22,7 @@ use crate::exec::Backend;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::scene::{PartVoxels, nearest_voxel};
-use crate::search::{DescriptorKind, MatchOptions};
+use crate::options::{DescriptorKind, MatchOptions};
 use crate::voxel::{Ball, GridSpec};
 
 /// c_T is kept unless it drifts by more than this many thresholds: on the
@@ -130,24 +130,7 @@ pub(super) fn stable_anchor(
             _ => Some(roughness(a)),
         })
         .collect();
-    let instability: Vec<f64> = if turning {
-        turns
-    } else {
-        turns
-            .iter()
-            .zip(&rough)
-            .map(|(&t, r)| (t / STABLE_DRIFT).max(r.unwrap_or(0.0) / ROUGH_DRIFT))
-            .collect()
-    };
-    let best = (0..anchors.len())
-        .min_by(|&a, &b| instability[a].total_cmp(&instability[b]))
-        .expect("c_T at least");
-    // Another anchor must do clearly better to replace the paper's.
-    let chosen = if instability[best] < instability[0] * ALTERNATIVE_SHARE {
-        best
-    } else {
-        0
-    };
+    let chosen = least_unstable(turns, &rough, turning);
     let voxel = anchors[chosen];
     let rough = rough[chosen].unwrap_or_else(|| roughness(voxel));
     Ok(Anchor {
@@ -155,6 +138,30 @@ pub(super) fn stable_anchor(
         rough: rough > ROUGH_DRIFT,
         steady: false,
     })
+}
+
+/// Which of the anchors (c_T's first) to take, from their drifts when
+/// turned and, unless the template is `turning`, against their neighbours,
+/// each measured against its limit: another must do clearly better to
+/// replace the paper's.
+fn least_unstable(turns: Vec<f64>, rough: &[Option<f64>], turning: bool) -> usize {
+    let instability: Vec<f64> = if turning {
+        turns
+    } else {
+        turns
+            .iter()
+            .zip(rough)
+            .map(|(&t, r)| (t / STABLE_DRIFT).max(r.unwrap_or(0.0) / ROUGH_DRIFT))
+            .collect()
+    };
+    let best = (0..instability.len())
+        .min_by(|&a, &b| instability[a].total_cmp(&instability[b]))
+        .expect("c_T at least");
+    if instability[best] < instability[0] * ALTERNATIVE_SHARE {
+        best
+    } else {
+        0
+    }
 }
 
 /// Further anchors of a model template, besides `primary`: up to

@@ -5,7 +5,7 @@ use super::*;
 use crate::exec::Backend;
 use crate::mesh::shapes::{cuboid, uv_sphere};
 use crate::scene::SceneOptions;
-use crate::search::MatchOptions;
+use crate::options::MatchOptions;
 
 /// [`VoxelTemplate::new`] as every test here calls it: the one place to change
 /// when its signature does.

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
-use crate::search::MatchOptions;
+use crate::options::MatchOptions;
 use crate::voxel::GridSpec;
 
 /// The anchor of a template of `radius` and `layers` voxelized on `voxels`

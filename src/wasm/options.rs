@@ -16,7 +16,7 @@ use wasm_bindgen::prelude::*;
 
 use crate::error::{FileText, Format};
 use crate::scene::SceneOptions;
-use crate::search::MatchOptions;
+use crate::options::MatchOptions;
 
 #[wasm_bindgen]
 extern "C" {

@@ -282,23 +282,7 @@ fn congruent_parts_keeping(
             let length = pattern.len();
             let key = (length, local.vertices.len(), pattern_hash(&pattern));
             let same_pattern = originals.entry(key).or_default();
-            copies[i] = same_pattern
-                .close_to(&local)
-                .into_iter()
-                .find_map(|original| {
-                    let read_again;
-                    let (there, their_pattern) = match &original.kept {
-                        Some((there, their_pattern)) => (there, their_pattern),
-                        None => {
-                            read_again = Local::new(mesh, parts[original.part]);
-                            (&read_again.0, &read_again.1)
-                        }
-                    };
-                    (*their_pattern == pattern)
-                        .then(|| there.motion_to(&local, original.pair))
-                        .flatten()
-                        .map(|m| (original.part, m))
-                });
+            copies[i] = original_of(same_pattern, &local, &pattern, mesh, parts);
             let (_, last) = last_of_count[&parts[i].len()];
             if copies[i].is_none()
                 && last > i
@@ -329,6 +313,35 @@ fn congruent_parts_keeping(
         }
     }
     copies
+}
+
+/// The first of `same_pattern`'s originals near `local` whose numbered
+/// triangles equal `pattern`, and the motion onto `local`: an original
+/// whose numbering was not kept is numbered again.
+fn original_of(
+    same_pattern: &SamePattern,
+    local: &Local,
+    pattern: &[u32],
+    mesh: &TriMesh,
+    parts: &[&[u32]],
+) -> Option<(usize, Rigid)> {
+    same_pattern
+        .close_to(local)
+        .into_iter()
+        .find_map(|original| {
+            let read_again;
+            let (there, their_pattern) = match &original.kept {
+                Some((there, their_pattern)) => (there, their_pattern),
+                None => {
+                    read_again = Local::new(mesh, parts[original.part]);
+                    (&read_again.0, &read_again.1)
+                }
+            };
+            (their_pattern.as_slice() == pattern)
+                .then(|| there.motion_to(local, original.pair))
+                .flatten()
+                .map(|m| (original.part, m))
+        })
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use crate::descriptor::{HarmonicsDescriptor, LayerBatch, VolumeDescriptor, all_a
 use crate::error::Result;
 use crate::instances::Instance;
 use crate::scene::{PartVoxels, ScenePart};
-use crate::search::options::DescriptorKind;
+use crate::options::DescriptorKind;
 use crate::voxel::spaced;
 
 impl PartSearch<'_> {

@@ -21,19 +21,25 @@ mod windows;
 
 use std::cell::RefCell;
 
-use super::GpuRef;
-use super::options::MatchOptions;
-use super::report::{GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::cascade::Observer;
 use crate::clock::now_ms;
 use crate::error::Result;
 use crate::instances::best_first;
 use crate::scene::Scene;
+use crate::options::MatchOptions;
+use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
 use congruent_parts::congruent_parts;
 use place::moved_instance;
 use prepare::PartSearch;
 use waves::Found;
+
+/// The GPU a voxel search may use (nothing can be given without the
+/// `gpu` feature).
+#[cfg(feature = "gpu")]
+pub(super) type GpuRef<'a> = Option<&'a crate::gpu::Gpu>;
+#[cfg(not(feature = "gpu"))]
+pub(super) type GpuRef<'a> = Option<&'a std::convert::Infallible>;
 
 /// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
 /// part by part: each connected part of the scene large enough to hold a
@@ -102,14 +108,14 @@ pub(super) async fn search_voxels(
 
 /// The report's line on the GPU given.
 #[cfg(feature = "gpu")]
-fn gpu_info(gpu: GpuRef<'_>, fallback: Option<String>) -> Option<super::GpuInfo> {
-    gpu.map(|g| super::GpuInfo {
+fn gpu_info(gpu: GpuRef<'_>, fallback: Option<String>) -> Option<GpuInfo> {
+    gpu.map(|g| GpuInfo {
         adapter: g.description(),
         fallback,
     })
 }
 
 #[cfg(not(feature = "gpu"))]
-fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<super::GpuInfo> {
+fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<GpuInfo> {
     None
 }

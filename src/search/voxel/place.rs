@@ -1,16 +1,15 @@
 //! Verifying and placing a grid's survivors: the local bests of each
 //! anchor checked by the template's placement ([`crate::verify`]),
 //! grouped into instances, each aligned on the meshes around it (its pose
-//! and score); the template's surface samples for that; and an instance
-//! carried to a congruent copy of its part.
+//! and score); and an instance carried to a congruent copy of its part.
 
 use super::prepare::PartSearch;
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
 use crate::cascade::Survivor;
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
 use crate::math::{Aabb, Vec3};
-use crate::scene::{PartVoxels, Parts, Scene, ScenePart};
-use crate::template::{TemplateSource, VoxelTemplate};
+use crate::scene::{PartVoxels, Scene, ScenePart};
+use crate::template::VoxelTemplate;
 
 impl PartSearch<'_> {
     /// The placements that pass verification, anchor by anchor: each
@@ -107,36 +106,6 @@ impl PartSearch<'_> {
         instances
     }
 }
-
-/// Surface samples the template's pose is refined with: a model's whole
-/// surface, or the selected part's within the sphere.
-pub(super) fn template_samples(
-    source: &TemplateSource,
-    scene: &Scene,
-    template: &VoxelTemplate,
-) -> SurfaceSamples {
-    let (c, r) = (template.center(), template.radius());
-    let triangles: Vec<[Vec3; 3]> = match source {
-        TemplateSource::Model(model) => (0..model.triangles().len())
-            .map(|t| model.corners(t))
-            .collect(),
-        TemplateSource::Selection { .. } => {
-            let part = template
-                .scene_part()
-                .expect("a selection lies on a scene part");
-            scene.parts(Parts::Components)[part]
-                .triangles()
-                .iter()
-                .map(|&t| scene.mesh().corners(t as usize))
-                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
-                .collect()
-        }
-    };
-    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
-}
-
-/// Template surface samples for the pose refinement.
-const ALIGN_SAMPLES: usize = 1024;
 
 /// Refines each instance's pose on the meshes ([`crate::align`]): the
 /// template's samples onto `part`'s triangles around the instance. The

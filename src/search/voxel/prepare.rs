@@ -1,18 +1,17 @@
 //! The template's side of a voxel search, prepared once for every part:
 //! the lattice it is searched on, its grid and signatures, a verifier per
-//! anchor, the samples its poses are refined with, and what all of that
-//! holds of the memory budget.
+//! anchor, the surface samples its poses are refined with, and what all
+//! of that holds of the memory budget.
 
 use super::near_vertices::{self, template_gap};
-use super::place::template_samples;
 use crate::align::SurfaceSamples;
 use crate::budget::{add_ball_tables, voxel_bytes};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{MemoryEstimate, Result};
-use crate::math::Vec3;
+use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Parts, Scene};
-use crate::search::options::{DescriptorKind, MatchOptions};
+use crate::options::{DescriptorKind, MatchOptions};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 use crate::voxel::Ball;
@@ -177,6 +176,36 @@ fn anchor_gap(scene: &Scene, source: &TemplateSource, template: &VoxelTemplate) 
         }
     }
 }
+
+/// Surface samples the template's pose is refined with: a model's whole
+/// surface, or the selected part's within the sphere.
+fn template_samples(
+    source: &TemplateSource,
+    scene: &Scene,
+    template: &VoxelTemplate,
+) -> SurfaceSamples {
+    let (c, r) = (template.center(), template.radius());
+    let triangles: Vec<[Vec3; 3]> = match source {
+        TemplateSource::Model(model) => (0..model.triangles().len())
+            .map(|t| model.corners(t))
+            .collect(),
+        TemplateSource::Selection { .. } => {
+            let part = template
+                .scene_part()
+                .expect("a selection lies on a scene part");
+            scene.parts(Parts::Components)[part]
+                .triangles()
+                .iter()
+                .map(|&t| scene.mesh().corners(t as usize))
+                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
+                .collect()
+        }
+    };
+    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
+}
+
+/// Template surface samples for the pose refinement.
+const ALIGN_SAMPLES: usize = 1024;
 
 /// What a voxel search holds besides the part it searches: the scene's
 /// mesh, the template's voxel grids and the run tables of the volume and

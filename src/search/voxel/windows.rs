@@ -9,6 +9,8 @@
 //! whole part's grid would give. A copy whose points fall in two cores is
 //! found in both; the search merges such finds.
 
+use std::collections::BTreeSet;
+
 use super::near_vertices::NearVertices;
 use crate::budget::voxel_bytes;
 use crate::error::{Error, MemoryEstimate, Result};
@@ -109,98 +111,128 @@ pub(super) fn part_windows(
     if scene.fits_one_grid(part, lattice, reach) {
         return Ok(None);
     }
-    let limit = scene.window_bytes();
-    let spec = &lattice.spec;
-    let pad = (2.0 * reach).ceil().max(0.0) as usize + MARGIN;
-    // The part's voxels on the lattice, [lo, hi) per axis, and one more on
-    // each side: a vertex on a voxel's side may round into either.
-    let (low, high) = (
-        spec.to_grid(part.bounds().min),
-        spec.to_grid(part.bounds().max),
-    );
-    let lo = [0, 1, 2].map(|a| low[a].floor() as i64 - 1);
-    let hi = [0, 1, 2].map(|a| high[a].floor() as i64 + 2);
-    let extent = [0, 1, 2].map(|a| (hi[a] - lo[a]).max(1) as usize);
-    // Split the longest core until a window fits.
-    let mut count = [1usize; 3];
-    let core = |count: &[usize; 3]| [0, 1, 2].map(|a| extent[a].div_ceil(count[a]));
-    loop {
-        let sides = core(&count).map(|c| c + 2 * pad);
-        let window = GridSpec {
-            origin: spec.origin,
-            voxel_size: spec.voxel_size,
-            dims: sides,
-        };
-        let fits = voxel_bytes(&window) <= limit && sides.iter().all(|&s| s <= MAX_SIDE);
-        let cores = core(&count);
-        let axis = (0..3)
-            .filter(|&a| cores[a] > pad.max(1))
-            .max_by_key(|&a| cores[a]);
-        match axis {
-            Some(a) if !fits => count[a] += 1,
-            _ => break,
-        }
-    }
-    let side = core(&count);
-    let window = |at: [usize; 3]| {
-        let first = [0, 1, 2].map(|a| lo[a] + (at[a] * side[a]) as i64);
-        let last = [0, 1, 2].map(|a| (first[a] + side[a] as i64).min(hi[a]));
-        (0..3)
-            .all(|a| first[a] < last[a])
-            .then(|| Window::new(spec, first, last, pad))
-    };
+    let tiling = Tiling::new(&lattice.spec, part.bounds(), reach, scene.window_bytes());
     let most = max_listed(scene.memory_budget());
-    let all = count.iter().map(|&c| c as f64).product::<f64>();
+    let all = tiling.count.iter().map(|&c| c as f64).product::<f64>();
     if all <= most as f64 {
         let mut windows = Vec::new();
-        for k in 0..count[2] {
-            for j in 0..count[1] {
-                for i in 0..count[0] {
-                    windows.extend(window([i, j, k]));
+        for k in 0..tiling.count[2] {
+            for j in 0..tiling.count[1] {
+                for i in 0..tiling.count[0] {
+                    windows.extend(tiling.window([i, j, k]));
                 }
             }
         }
         return Ok(Some(windows));
     }
-    // Too many to list: those whose core may hold a vertex's surroundings,
-    // found from the vertex cells (a superset of the windows the search
-    // keeps, in the same order).
+    // Too many to list: those whose core may hold a vertex's surroundings.
     let Some(near) = near else {
         return Err(too_many_windows(scene, part, lattice, all, most));
     };
-    let mut listed = std::collections::BTreeSet::new();
-    for cell in near.cells() {
-        let (a, b) = (spec.to_grid(cell.min), spec.to_grid(cell.max));
-        let range = [0, 1, 2].map(|x| {
-            let index = |v: f64| (v.floor() as i64 - lo[x]).max(0) as usize / side[x];
-            (
-                index(a[x] - 1.0).min(count[x] - 1),
-                index(b[x] + 1.0).min(count[x] - 1),
-            )
-        });
-        for k in range[2].0..=range[2].1 {
-            for j in range[1].0..=range[1].1 {
-                for i in range[0].0..=range[0].1 {
-                    listed.insert([k, j, i]);
-                }
-            }
-        }
-        if listed.len() > most {
-            return Err(too_many_windows(
-                scene,
-                part,
-                lattice,
-                listed.len() as f64,
-                most,
-            ));
-        }
-    }
+    let listed = tiling
+        .near_vertices(near, most)
+        .map_err(|listed| too_many_windows(scene, part, lattice, listed as f64, most))?;
     Ok(Some(
         listed
             .into_iter()
-            .filter_map(|[k, j, i]| window([i, j, k]))
+            .filter_map(|[k, j, i]| tiling.window([i, j, k]))
             .collect(),
     ))
+}
+
+/// A part's box on the lattice cut into equal cores, each padded into a
+/// window that fits the window budget.
+struct Tiling {
+    spec: GridSpec,
+    /// The part's voxels, `[lo, hi)` per axis, and one more on each side:
+    /// a vertex on a voxel's side may round into either.
+    lo: [i64; 3],
+    hi: [i64; 3],
+    /// Cores along each axis, and their side in voxels.
+    count: [usize; 3],
+    side: [usize; 3],
+    pad: usize,
+}
+
+impl Tiling {
+    /// The longest core split until a window of `bounds` on `spec`, padded
+    /// for a template of `reach` voxels, fits `limit` bytes.
+    fn new(spec: &GridSpec, bounds: Aabb, reach: f64, limit: u64) -> Tiling {
+        let pad = (2.0 * reach).ceil().max(0.0) as usize + MARGIN;
+        let (low, high) = (spec.to_grid(bounds.min), spec.to_grid(bounds.max));
+        let lo = [0, 1, 2].map(|a| low[a].floor() as i64 - 1);
+        let hi = [0, 1, 2].map(|a| high[a].floor() as i64 + 2);
+        let extent = [0, 1, 2].map(|a| (hi[a] - lo[a]).max(1) as usize);
+        let mut count = [1usize; 3];
+        let core = |count: &[usize; 3]| [0, 1, 2].map(|a| extent[a].div_ceil(count[a]));
+        loop {
+            let sides = core(&count).map(|c| c + 2 * pad);
+            let window = GridSpec {
+                origin: spec.origin,
+                voxel_size: spec.voxel_size,
+                dims: sides,
+            };
+            let fits = voxel_bytes(&window) <= limit && sides.iter().all(|&s| s <= MAX_SIDE);
+            let cores = core(&count);
+            let axis = (0..3)
+                .filter(|&a| cores[a] > pad.max(1))
+                .max_by_key(|&a| cores[a]);
+            match axis {
+                Some(a) if !fits => count[a] += 1,
+                _ => break,
+            }
+        }
+        Tiling {
+            spec: *spec,
+            lo,
+            hi,
+            count,
+            side: core(&count),
+            pad,
+        }
+    }
+
+    /// The window of the core at `at` (in cores), unless it is empty.
+    fn window(&self, at: [usize; 3]) -> Option<Window> {
+        let first = [0, 1, 2].map(|a| self.lo[a] + (at[a] * self.side[a]) as i64);
+        let last = [0, 1, 2].map(|a| (first[a] + self.side[a] as i64).min(self.hi[a]));
+        (0..3)
+            .all(|a| first[a] < last[a])
+            .then(|| Window::new(&self.spec, first, last, self.pad))
+    }
+
+    /// The cores (as `[k, j, i]`, in listing order) that may hold a
+    /// vertex's surroundings, found from `near`'s cells: a superset of the
+    /// windows the search keeps. Past `most` of them, how many were
+    /// listed.
+    fn near_vertices(
+        &self,
+        near: &NearVertices,
+        most: usize,
+    ) -> std::result::Result<BTreeSet<[usize; 3]>, usize> {
+        let mut listed = BTreeSet::new();
+        for cell in near.cells() {
+            let (a, b) = (self.spec.to_grid(cell.min), self.spec.to_grid(cell.max));
+            let range = [0, 1, 2].map(|x| {
+                let index = |v: f64| (v.floor() as i64 - self.lo[x]).max(0) as usize / self.side[x];
+                (
+                    index(a[x] - 1.0).min(self.count[x] - 1),
+                    index(b[x] + 1.0).min(self.count[x] - 1),
+                )
+            });
+            for k in range[2].0..=range[2].1 {
+                for j in range[1].0..=range[1].1 {
+                    for i in range[0].0..=range[0].1 {
+                        listed.insert([k, j, i]);
+                    }
+                }
+            }
+            if listed.len() > most {
+                return Err(listed.len());
+            }
+        }
+        Ok(listed)
+    }
 }
 
 /// Bytes a listed window takes, with its share of the list's slack.

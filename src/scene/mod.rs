@@ -10,10 +10,17 @@ use crate::error::MemoryEstimate;
 use crate::error::{Error, Result};
 use crate::exec::Backend;
 use crate::math::Aabb;
-use crate::math::Vec3;
-use crate::mesh::{TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere};
-use crate::voxel::{Grid, GridSpec, PADDING, Solid, WindowedMesh, dilate, skin, voxelize};
+use crate::mesh::TriMesh;
+use crate::voxel::{GridSpec, PADDING, WindowedMesh};
 use std::sync::OnceLock;
+
+mod part_voxels;
+mod parts;
+
+pub use part_voxels::PartVoxels;
+pub(crate) use part_voxels::nearest_voxel;
+pub use parts::ScenePart;
+use parts::{join_overlapping, split_parts};
 
 /// How to voxelize a scene.
 ///
@@ -139,141 +146,6 @@ pub enum Parts {
     OverlappingBoxes,
 }
 
-/// One connected component of the scene's mesh: the voxel descriptors see
-/// a candidate's own part only, so that neighbours touching it or sitting
-/// in it do not hide it.
-#[derive(Clone, Debug)]
-pub struct ScenePart {
-    triangles: Vec<u32>,
-    radius: f64,
-    bounds: Aabb,
-}
-
-impl ScenePart {
-    /// The parts of `mesh` made of each of `lists`, their spheres and boxes
-    /// found on `backend`'s threads.
-    fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Backend) -> Vec<ScenePart> {
-        let shapes = backend.map_each(lists.len(), |k| ScenePart::shape(mesh, &lists[k]));
-        lists
-            .into_iter()
-            .zip(shapes)
-            .map(|(triangles, (radius, bounds))| ScenePart {
-                triangles,
-                radius,
-                bounds,
-            })
-            .collect()
-    }
-
-    /// The minimal bounding sphere's radius and the box of `triangles`'
-    /// vertices, each read once.
-    fn shape(mesh: &TriMesh, triangles: &[u32]) -> (f64, Aabb) {
-        let mut numbering = VertexNumbering::for_part(mesh, triangles);
-        let mut vertices = Vec::new();
-        for &t in triangles {
-            for v in mesh.triangles()[t as usize] {
-                if numbering.number(v).1 {
-                    vertices.push(mesh.vertex(v));
-                }
-            }
-        }
-        (
-            minimal_bounding_sphere(&vertices).map_or(0.0, |s| s.radius),
-            Aabb::around(vertices).expect("a part has vertices"),
-        )
-    }
-
-    /// The radius of the part's minimal bounding sphere.
-    pub fn radius(&self) -> f64 {
-        self.radius
-    }
-
-    /// Its triangles in the scene's mesh.
-    pub fn triangles(&self) -> &[u32] {
-        &self.triangles
-    }
-
-    /// Its bounding box.
-    pub fn bounds(&self) -> Aabb {
-        self.bounds
-    }
-}
-
-/// A part's solid and skin voxels, built for one search.
-pub struct PartVoxels {
-    solid: Solid,
-    skin: Vec<[u16; 3]>,
-    near_surface: Grid,
-    voxelize_ms: f64,
-}
-
-impl PartVoxels {
-    /// Voxelizes `mesh` on `spec`: its solid, skin and the voxels near its
-    /// surface.
-    pub(crate) fn build(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> PartVoxels {
-        let start = now_ms();
-        let grid = voxelize(mesh, spec, backend);
-        PartVoxels::from_solid(grid, start, backend)
-    }
-
-    /// Voxelizes the window `spec` of a part too large for one grid: equal
-    /// to the whole part's voxels off the window's outermost layer.
-    pub(crate) fn build_window(
-        mesh: &WindowedMesh,
-        spec: &GridSpec,
-        backend: Backend,
-    ) -> PartVoxels {
-        let start = now_ms();
-        let grid = mesh.voxelize(spec, backend);
-        PartVoxels::from_solid(grid, start, backend)
-    }
-
-    fn from_solid(grid: Grid, start: f64, backend: Backend) -> PartVoxels {
-        let skin_grid = skin(&grid, backend);
-        let near_surface = dilate(&skin_grid, backend);
-        // Sized exactly: a messy part's skin can run to tens of millions of
-        // voxels, and doubling would take twice that.
-        let mut skin = Vec::with_capacity(skin_grid.count_ones() as usize);
-        skin.extend(skin_grid.iter_ones());
-        PartVoxels {
-            solid: Solid::new(grid),
-            skin,
-            near_surface,
-            voxelize_ms: now_ms() - start,
-        }
-    }
-
-    /// The solid with its count pyramid.
-    pub fn solid(&self) -> &Solid {
-        &self.solid
-    }
-
-    /// The solid bit grid.
-    pub fn grid(&self) -> &Grid {
-        self.solid.bits()
-    }
-
-    /// The candidate points: skin voxels in z, y, x order.
-    pub fn skin(&self) -> &[[u16; 3]] {
-        &self.skin
-    }
-
-    /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
-    pub fn near_surface(&self) -> &Grid {
-        &self.near_surface
-    }
-
-    /// How long voxelizing took, in milliseconds.
-    pub fn voxelize_ms(&self) -> f64 {
-        self.voxelize_ms
-    }
-
-    /// World position of candidate point `i`.
-    pub fn position(&self, i: u32) -> Vec3 {
-        self.solid.bits().spec().center(self.skin[i as usize])
-    }
-}
-
 impl Scene {
     /// Prepares `mesh` for searching: splits it into its connected parts and
     /// checks now that the largest part's voxels fit the memory budget.
@@ -294,7 +166,7 @@ impl Scene {
             let largest = parts
                 .iter()
                 .map(|p| {
-                    spec.crop(p.bounds, PADDING)
+                    spec.crop(p.bounds(), PADDING)
                         .map_or(u64::MAX, |s| voxel_bytes(&s))
                 })
                 .max()
@@ -358,7 +230,7 @@ impl Scene {
     pub fn part_of_triangle(&self, t: usize) -> usize {
         self.parts
             .iter()
-            .position(|p| p.triangles.binary_search(&(t as u32)).is_ok())
+            .position(|p| p.triangles().binary_search(&(t as u32)).is_ok())
             .expect("every triangle is in a part")
     }
 
@@ -406,7 +278,7 @@ impl Scene {
         estimate.check(self.memory_budget, || {
             format!(
                 "a part of {} triangles needs {} x {} x {} voxels at resolution {}: lower the resolution, or raise the memory budget",
-                part.triangles.len(),
+                part.triangles().len(),
                 spec.dims[0],
                 spec.dims[1],
                 spec.dims[2],
@@ -415,7 +287,7 @@ impl Scene {
         })?;
         // The part's own mesh is part of voxelizing it.
         let started = now_ms();
-        let mesh = self.mesh.subset(&part.triangles);
+        let mesh = self.mesh.subset(part.triangles());
         let mut voxels = PartVoxels::build(&mesh, &spec, self.backend);
         voxels.voxelize_ms = now_ms() - started;
         Ok(voxels)
@@ -446,7 +318,7 @@ impl Scene {
     ) -> Result<PartVoxels> {
         let pad = reach.ceil().clamp(0.0, f64::from(u16::MAX)) as usize + 2;
         let spec = lattice.spec.crop(focus, pad)?;
-        let windowed = WindowedMesh::new(self.mesh.subset(&part.triangles), self.backend);
+        let windowed = WindowedMesh::new(self.mesh.subset(part.triangles()), self.backend);
         let mut estimate = held.clone();
         estimate
             .add("a large part's mesh for its windows", windowed.bytes())
@@ -466,7 +338,7 @@ impl Scene {
     /// many small parts twice as slow. The padding may at most double the
     /// part's memory (or take [`PAD_FLOOR_BYTES`]); past that it shrinks.
     pub fn part_spec(&self, part: &ScenePart, lattice: &Lattice, reach: f64) -> Result<GridSpec> {
-        let tight = lattice.spec.crop(part.bounds, PADDING)?;
+        let tight = lattice.spec.crop(part.bounds(), PADDING)?;
         let cap = 2 * voxel_bytes(&tight) + PAD_FLOOR_BYTES;
         let mut pad = if reach.is_finite() && reach > 0.0 {
             reach.ceil().min(f64::from(u16::MAX)) as usize + 2
@@ -474,7 +346,7 @@ impl Scene {
             PADDING
         };
         while pad > PADDING {
-            if let Ok(spec) = lattice.spec.crop(part.bounds, pad)
+            if let Ok(spec) = lattice.spec.crop(part.bounds(), pad)
                 && voxel_bytes(&spec) <= cap
             {
                 return Ok(spec);
@@ -556,55 +428,6 @@ impl Scene {
     }
 }
 
-/// The connected parts of `mesh` with their bounds and bounding spheres.
-fn split_parts(mesh: &TriMesh, backend: Backend) -> Vec<ScenePart> {
-    ScenePart::all(mesh, connected_components(mesh, backend), backend)
-}
-
-/// Joins the parts whose bounding boxes overlap, transitively (a sweep
-/// along x, then union-find).
-fn join_overlapping(mesh: &TriMesh, parts: &[ScenePart], backend: Backend) -> Vec<ScenePart> {
-    let mut group: Vec<usize> = (0..parts.len()).collect();
-    fn root(group: &mut [usize], mut i: usize) -> usize {
-        while group[i] != i {
-            group[i] = group[group[i]];
-            i = group[i];
-        }
-        i
-    }
-    let mut by_x: Vec<usize> = (0..parts.len()).collect();
-    by_x.sort_by(|&a, &b| parts[a].bounds.min.x.total_cmp(&parts[b].bounds.min.x));
-    for (k, &a) in by_x.iter().enumerate() {
-        let boxed = parts[a].bounds;
-        for &b in &by_x[k + 1..] {
-            let other = parts[b].bounds;
-            if other.min.x > boxed.max.x {
-                break;
-            }
-            let overlap =
-                (0..3).all(|i| other.min[i] <= boxed.max[i] && boxed.min[i] <= other.max[i]);
-            if overlap {
-                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
-                group[ra.max(rb)] = ra.min(rb);
-            }
-        }
-    }
-    let mut members: Vec<Vec<u32>> = vec![Vec::new(); parts.len()];
-    for i in 0..parts.len() {
-        let r = root(&mut group, i);
-        members[r].extend_from_slice(&parts[i].triangles);
-    }
-    let lists = members
-        .into_iter()
-        .filter(|m| !m.is_empty())
-        .map(|mut triangles| {
-            triangles.sort_unstable();
-            triangles
-        })
-        .collect();
-    ScenePart::all(mesh, lists, backend)
-}
-
 impl std::fmt::Debug for Scene {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Scene")
@@ -644,16 +467,4 @@ pub(crate) fn check_voxel_work(
         resolution,
         advice,
     })
-}
-
-/// The set voxel of `points` whose centre is nearest to world point `p`.
-pub(crate) fn nearest_voxel(spec: &GridSpec, points: &[[u16; 3]], p: Vec3) -> Option<[u16; 3]> {
-    points
-        .iter()
-        .min_by(|a, b| {
-            (spec.center(**a) - p)
-                .length_squared()
-                .total_cmp(&(spec.center(**b) - p).length_squared())
-        })
-        .copied()
 }
