@@ -3,7 +3,7 @@
 //!
 //! cargo run --release --example surface_build -- FILE [N] [serial]
 
-use fast_reject::Backend;
+use fast_reject::Threads;
 use fast_reject::descriptor::curvature::Surface;
 
 fn main() {
@@ -14,9 +14,9 @@ fn main() {
     };
     let runs: usize = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(5);
     let backend = if args.iter().any(|a| a == "serial") {
-        Backend::Serial
+        Threads::Serial
     } else {
-        Backend::Parallel
+        Threads::Parallel
     };
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let mesh = fast_reject::load(&bytes, None).unwrap_or_else(|e| panic!("{path}: {e}"));

@@ -9,7 +9,7 @@
 
 use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::error::MemoryEstimate;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::mesh::TriMesh;
 use crate::verify::moment_level;
 use crate::voxel::{GridSpec, MAX_LEVEL, level_for_radius};
@@ -64,7 +64,7 @@ pub(crate) fn voxel_bytes(spec: &GridSpec) -> u64 {
 /// It bounds the surface pass (a triangle is swept along its dominant axis,
 /// one column per face) and the fill's column crossings, and it is known in
 /// O(triangles) before anything is built.
-pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64, backend: Backend) -> f64 {
+pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64, backend: Threads) -> f64 {
     // Summed in fixed chunks, so that every backend adds in one order.
     const CHUNK: usize = 1 << 14;
     let triangles = mesh.triangles().len();
@@ -152,7 +152,7 @@ mod tests {
             vec![[0, 1, 2], [0, 2, 3]],
         )
         .unwrap();
-        assert!((voxel_work(&flat, 0.1, Backend::Serial) - 100.0).abs() < 1e-9);
+        assert!((voxel_work(&flat, 0.1, Threads::Serial) - 100.0).abs() < 1e-9);
         let h = std::f32::consts::FRAC_1_SQRT_2;
         let tilted = TriMesh::new(
             vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, h, h], [0.0, h, h]],
@@ -160,7 +160,7 @@ mod tests {
         )
         .unwrap();
         let expected = 2.0 * f64::from(h) * 100.0;
-        assert!((voxel_work(&tilted, 0.1, Backend::Serial) - expected).abs() < 1e-4);
+        assert!((voxel_work(&tilted, 0.1, Threads::Serial) - expected).abs() < 1e-4);
     }
 
     #[test]
@@ -169,8 +169,8 @@ mod tests {
         // the three planes are three discs, each covered twice.
         let sphere = crate::mesh::shapes::uv_sphere(crate::math::Vec3::ZERO, 1.0, 180, 240);
         assert!(sphere.triangles().len() > 4 << 14);
-        let serial = voxel_work(&sphere, 0.1, Backend::Serial);
-        assert_eq!(serial, voxel_work(&sphere, 0.1, Backend::Parallel));
+        let serial = voxel_work(&sphere, 0.1, Threads::Serial);
+        assert_eq!(serial, voxel_work(&sphere, 0.1, Threads::Parallel));
         let discs = 3.0 * 2.0 * std::f64::consts::PI * 100.0;
         assert!((serial - discs).abs() < 0.01 * discs, "{serial} {discs}");
     }

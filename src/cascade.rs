@@ -20,7 +20,7 @@ use std::ops::ControlFlow;
 use crate::clock::now_ms;
 use crate::descriptor::{Anchors, LayerBatch, LocalFuture, OnionDescriptor};
 use crate::error::{Error, Result};
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// What one layer of one stage did.
 #[derive(Clone, Debug, PartialEq)]
@@ -81,7 +81,7 @@ pub trait Stage: Sync {
     fn run<'a>(
         &'a self,
         candidates: Vec<(u32, Anchors)>,
-        backend: Backend,
+        backend: Threads,
         batch: Option<&'a dyn LayerBatch>,
         report: &'a mut dyn FnMut(LayerStats) -> Result<()>,
     ) -> LocalFuture<'a, Result<Vec<Survivor>>>;
@@ -94,7 +94,7 @@ impl<D: OnionDescriptor> Stage for D {
     fn run<'a>(
         &'a self,
         candidates: Vec<(u32, Anchors)>,
-        backend: Backend,
+        backend: Threads,
         batch: Option<&'a dyn LayerBatch>,
         report: &'a mut dyn FnMut(LayerStats) -> Result<()>,
     ) -> LocalFuture<'a, Result<Vec<Survivor>>> {
@@ -165,7 +165,7 @@ pub async fn run_cascade(
     stages: &[&dyn Stage],
     candidates: Vec<u32>,
     anchors: Anchors,
-    backend: Backend,
+    backend: Threads,
     batch: Option<&dyn LayerBatch>,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
@@ -206,7 +206,7 @@ pub fn run_cascade_in_chunks(
     candidates: Vec<u32>,
     chunk: usize,
     anchors: Anchors,
-    backend: Backend,
+    backend: Threads,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
     if candidates.is_empty() {
@@ -227,7 +227,7 @@ pub fn run_cascade_in_chunks(
                 stages,
                 pieces[i].to_vec(),
                 anchors,
-                Backend::Serial,
+                Threads::Serial,
                 None,
                 quiet,
             ))
@@ -344,7 +344,7 @@ mod tests {
             self.threshold
         }
 
-        fn order(&self, _: &[u32], _: Backend) -> Vec<usize> {
+        fn order(&self, _: &[u32], _: Threads) -> Vec<usize> {
             self.order.clone()
         }
 
@@ -386,7 +386,7 @@ mod tests {
     fn run(
         stages: &[&dyn Stage],
         candidates: Vec<u32>,
-        backend: Backend,
+        backend: Threads,
     ) -> (Vec<Survivor>, Vec<LayerStats>) {
         finished(run_cascade(stages, candidates, 1, backend, None, &mut ())).unwrap()
     }
@@ -402,7 +402,7 @@ mod tests {
     #[test]
     fn layers_run_in_order_each_on_the_survivors_of_the_one_before() {
         let t = six_points();
-        let (survivors, _) = run(&[&t], (0..6).collect(), Backend::Serial);
+        let (survivors, _) = run(&[&t], (0..6).collect(), Threads::Serial);
         // Serially the cascade computes one whole layer, in candidate
         // order, before the next: layer 2 for all six, layer 0 for the five
         // left, layer 1 for the four left.
@@ -427,7 +427,7 @@ mod tests {
         let mut steps = vec![vec![0.0; 2]; 6];
         steps[0][1] = 3.0;
         let second = Table::new("second", steps, vec![0, 1], 2.0);
-        let (survivors, stats) = run(&[&first, &second], (0..6).collect(), Backend::Serial);
+        let (survivors, stats) = run(&[&first, &second], (0..6).collect(), Threads::Serial);
         assert_eq!(
             counts(&stats),
             [
@@ -461,7 +461,7 @@ mod tests {
 
     #[test]
     fn without_stages_every_candidate_survives_at_distance_zero() {
-        let (survivors, stats) = run(&[], vec![4, 2, 9], Backend::Parallel);
+        let (survivors, stats) = run(&[], vec![4, 2, 9], Threads::Parallel);
         assert!(stats.is_empty());
         assert_eq!(
             survivors,
@@ -475,7 +475,7 @@ mod tests {
 
     #[test]
     fn an_observer_that_breaks_cancels_with_the_typed_error() {
-        for backend in [Backend::Serial, Backend::Parallel] {
+        for backend in [Threads::Serial, Threads::Parallel] {
             let first = six_points();
             let second = Table::new("second", vec![vec![0.0; 2]; 6], vec![0, 1], 2.0);
             // Break at the second layer of the first stage, then at the
@@ -531,7 +531,7 @@ mod tests {
 
     #[test]
     fn serial_and_parallel_backends_give_the_same_result() {
-        let runs = [Backend::Serial, Backend::Parallel].map(|backend| {
+        let runs = [Threads::Serial, Threads::Parallel].map(|backend| {
             let a = random_table(5000, 6, 0x9e37_79b9_7f4a_7c15);
             let b = random_table(5000, 4, 0x2545_f491_4f6c_dd1d);
             let (survivors, stats) = run(&[&a, &b], (0..5000).rev().collect(), backend);
@@ -557,13 +557,13 @@ mod tests {
                 name: "other",
                 ..random_table(3000, 4, 0x0fed_cba9_8765_4321)
             };
-            let (survivors, stats) = run(&[&a, &b], (0..3000).rev().collect(), Backend::Serial);
+            let (survivors, stats) = run(&[&a, &b], (0..3000).rev().collect(), Threads::Serial);
             (survivors, counts(&stats))
         };
         // Chunks that divide the candidates unevenly, rounds of several, a
         // chunk of one, and a chunk larger than them all.
         for chunk in [1, 7, 64, 5000] {
-            for backend in [Backend::Serial, Backend::Parallel] {
+            for backend in [Threads::Serial, Threads::Parallel] {
                 let a = random_table(3000, 6, 0x1234_5678_9abc_def1);
                 let b = Table {
                     name: "other",
@@ -595,7 +595,7 @@ mod tests {
         // No candidate: every layer reported empty, as by one run.
         let t = six_points();
         let (survivors, stats) =
-            run_cascade_in_chunks(&[&t], Vec::new(), 8, 1, Backend::Parallel, &mut ()).unwrap();
+            run_cascade_in_chunks(&[&t], Vec::new(), 8, 1, Threads::Parallel, &mut ()).unwrap();
         assert!(survivors.is_empty());
         assert_eq!(
             counts(&stats),
@@ -620,7 +620,7 @@ mod tests {
             (0..4000).collect(),
             16,
             1,
-            Backend::Parallel,
+            Threads::Parallel,
             &mut observer,
         );
         assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");

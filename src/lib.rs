@@ -93,7 +93,10 @@ compile_error!(
 pub use cascade::{LayerStats, Observer};
 pub use descriptor::ClutterPolicy;
 pub use error::{Error, Format, MemoryEstimate, Result};
-pub use exec::Backend;
+pub use exec::Threads;
+/// The former name of [`Threads`].
+#[deprecated(note = "renamed `Threads`: it says how the CPU's threads run, not which device")]
+pub type Backend = exec::Threads;
 pub use instances::Instance;
 pub use mesh::TriMesh;
 pub use mesh::io::load;

@@ -11,7 +11,7 @@ use std::str::FromStr;
 
 use crate::descriptor::ClutterPolicy;
 use crate::error::{Error, Result};
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// Which descriptors the cascade runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -190,8 +190,8 @@ pub struct MatchOptions {
     /// Serial or parallel. Default: parallel. The CLI sets it from
     /// `--threads`; JavaScript from the build it loaded.
     #[cfg_attr(feature = "serde", serde(skip))]
-    #[cfg_attr(feature = "cli", arg(skip = Backend::Parallel))]
-    pub backend: Backend,
+    #[cfg_attr(feature = "cli", arg(skip = Threads::Parallel))]
+    pub backend: Threads,
 }
 
 impl MatchOptions {
@@ -210,7 +210,7 @@ impl MatchOptions {
         template_voxels: 32.0,
         candidate_spacing: 2,
         clutter: ClutterPolicy::DEFAULT,
-        backend: Backend::Parallel,
+        backend: Threads::Parallel,
     };
 
     pub(crate) fn validate(&self) -> Result<()> {

@@ -39,7 +39,7 @@
 //! best wrong placements found reach 0.75-0.8: the default threshold, 0.85,
 //! sits between.
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::{Vec3, symmetric_eigen};
 use crate::voxel::{Ball, Grid, Solid, dilate, level_for_radius};
 
@@ -144,7 +144,7 @@ impl Verifier {
         target: Vec3,
         radii: &[f64],
         max_hidden: f64,
-        backend: Backend,
+        backend: Threads,
     ) -> Verifier {
         // Frames are read block by block, run by run: the balls need no
         // binding, only their levels.
@@ -604,9 +604,9 @@ mod tests {
             Vec3::new(1.1, 0.15, 0.15),
         ));
         let spec = GridSpec::around(m.bounds(), 0.04).unwrap();
-        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
-        let near = dilate(&skin(solid.bits(), Backend::Serial), Backend::Serial);
-        let surface: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
+        let solid = Solid::new(voxelize(&m, &spec, Threads::Serial));
+        let near = dilate(&skin(solid.bits(), Threads::Serial), Threads::Serial);
+        let surface: Vec<[u16; 3]> = skin(solid.bits(), Threads::Serial).iter_ones().collect();
         let anchor = surface[0];
         let radii = [8.0, 16.0, 24.0, 32.0];
         let verifier = Verifier::new(
@@ -617,7 +617,7 @@ mod tests {
             Vec3::ZERO,
             &radii,
             0.3,
-            Backend::Serial,
+            Threads::Serial,
         );
         let v = anchor.map(|c| c as i64);
         let identity = Pose {
@@ -649,9 +649,9 @@ mod tests {
     /// The voxels of `mesh` on a grid of `voxel` around `bounds`: solid,
     /// skin list and skin grown by a voxel.
     fn voxels(mesh: &crate::mesh::TriMesh, spec: &GridSpec) -> (Solid, Vec<[u16; 3]>, Grid) {
-        let solid = Solid::new(voxelize(mesh, spec, Backend::Serial));
-        let skin_grid = skin(solid.bits(), Backend::Serial);
-        let near = dilate(&skin_grid, Backend::Serial);
+        let solid = Solid::new(voxelize(mesh, spec, Threads::Serial));
+        let skin_grid = skin(solid.bits(), Threads::Serial);
+        let near = dilate(&skin_grid, Threads::Serial);
         (solid, skin_grid.iter_ones().collect(), near)
     }
 
@@ -683,7 +683,7 @@ mod tests {
             target,
             &radii,
             0.3,
-            Backend::Serial,
+            Threads::Serial,
         );
         let same = verifier.check(&tsolid, &tnear, &tskin, anchor, 0.85, true);
         assert!(same.surface > 0.95 && same.explained > 0.95, "{same:?}");

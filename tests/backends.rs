@@ -3,13 +3,13 @@
 
 mod common;
 
-use fast_reject::exec::Backend;
+use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Parts, Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
 use fast_reject::template::TemplateSource;
 
-fn run(scene_bytes: &[u8], template: &TemplateSource, backend: Backend) -> (Scene, MatchReport) {
+fn run(scene_bytes: &[u8], template: &TemplateSource, backend: Threads) -> (Scene, MatchReport) {
     let scene = Scene::new(
         load(scene_bytes, None).unwrap(),
         &SceneOptions::DEFAULT.with_backend(backend),
@@ -22,8 +22,8 @@ fn run(scene_bytes: &[u8], template: &TemplateSource, backend: Backend) -> (Scen
 }
 
 fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
-    let (scene_s, serial) = run(scene_bytes, template, Backend::Serial);
-    let (scene_p, parallel) = run(scene_bytes, template, Backend::Parallel);
+    let (scene_s, serial) = run(scene_bytes, template, Threads::Serial);
+    let (scene_p, parallel) = run(scene_bytes, template, Threads::Parallel);
     // Every part's voxels, at the padding a search uses.
     let lattice = scene_s
         .lattice_for(

@@ -7,7 +7,7 @@
 mod common;
 
 use common::run_with;
-use fast_reject::exec::Backend;
+use fast_reject::exec::Threads;
 use fast_reject::search::{DescriptorKind, MatchOptions};
 
 fn curvature() -> MatchOptions {
@@ -54,7 +54,7 @@ fn zoo_bunny() {
 #[test]
 fn serial_and_parallel_agree() {
     let mut serial = curvature();
-    serial.backend = Backend::Serial;
+    serial.backend = Threads::Serial;
     let a = run_with("twisted-homer", false, &serial);
     let b = run_with("twisted-homer", false, &curvature());
     assert_eq!(a.instances, b.instances);

@@ -28,7 +28,7 @@ mod common;
 use std::ops::ControlFlow;
 
 use fast_reject::LayerStats;
-use fast_reject::exec::Backend;
+use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, search};
@@ -63,7 +63,7 @@ fuzz_target!(|data: &[u8]| {
     let resolution = 8 + u32::from(params[0]) % 25;
     let scene_options = SceneOptions::DEFAULT
         .with_resolution(resolution)
-        .with_backend(Backend::Serial)
+        .with_backend(Threads::Serial)
         .with_memory_budget(MEMORY_BUDGET);
     let Ok(scene) = Scene::new(mesh, &scene_options) else {
         return;
@@ -84,7 +84,7 @@ fuzz_target!(|data: &[u8]| {
     };
 
     let mut opts = MatchOptions::DEFAULT;
-    opts.backend = Backend::Serial;
+    opts.backend = Threads::Serial;
     opts.descriptor = match params[6] % 4 {
         0 => DescriptorKind::VolumeHarmonics,
         1 => DescriptorKind::Volume,

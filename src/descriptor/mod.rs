@@ -24,7 +24,7 @@ pub use volume::VolumeDescriptor;
 use std::future::Future;
 use std::pin::Pin;
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::voxel::Ball;
 use harmonics::{Signature, SphereSampler};
 
@@ -83,7 +83,7 @@ pub trait OnionDescriptor: Sync {
     /// the same may put the most selective first (and may look at a sample
     /// of the candidates to find it), as long as its distance stays a lower
     /// bound that the last layer makes exact.
-    fn order(&self, _candidates: &[u32], _backend: Backend) -> Vec<usize> {
+    fn order(&self, _candidates: &[u32], _backend: Threads) -> Vec<usize> {
         (0..self.layers()).collect()
     }
 

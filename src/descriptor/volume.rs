@@ -15,7 +15,7 @@
 use super::batch::BatchFailure;
 use super::{Anchors, MAX_ANCHORS, all_anchors};
 use super::{ClutterPolicy, LayerBatch, LocalFuture, OnionDescriptor};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::voxel::{Ball, Solid, level_for_radius};
 
 /// Balls are counted on blocks at least this many times smaller than their
@@ -64,7 +64,7 @@ impl<'a> VolumeDescriptor<'a> {
         radii: &[f64],
         templates: Vec<Vec<f64>>,
         threshold: f64,
-        backend: Backend,
+        backend: Threads,
     ) -> Self {
         let balls = Self::bound_balls(solid, radii, backend);
         Self::with_balls(solid, points, radii, balls, templates, threshold)
@@ -114,7 +114,7 @@ impl<'a> VolumeDescriptor<'a> {
     }
 
     /// The unbound balls for `radii` (world units) on voxels of `voxel_size`.
-    pub fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Backend) -> Vec<Ball> {
+    pub fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
         radii
             .iter()
             .map(|r| {
@@ -124,7 +124,7 @@ impl<'a> VolumeDescriptor<'a> {
             .collect()
     }
 
-    fn bound_balls(solid: &Solid, radii: &[f64], backend: Backend) -> Vec<Ball> {
+    fn bound_balls(solid: &Solid, radii: &[f64], backend: Threads) -> Vec<Ball> {
         let voxel = solid.bits().spec().voxel_size;
         Self::unbound_balls(radii, voxel, backend)
             .into_iter()
@@ -134,7 +134,7 @@ impl<'a> VolumeDescriptor<'a> {
 
     /// The descriptor of one voxel of any solid with this stage's voxel size:
     /// what the template side computes.
-    pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Backend) -> Vec<f64> {
+    pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Threads) -> Vec<f64> {
         let voxel = solid.bits().spec().voxel_size;
         Self::describe_with(
             solid,
@@ -147,7 +147,7 @@ impl<'a> VolumeDescriptor<'a> {
     /// The descriptor of voxel `v` from `balls`, bound to any solid or none:
     /// one point is read run by run (`Ball::count_once`); the levels it
     /// reads are built with `backend`.
-    pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball], backend: Backend) -> Vec<f64> {
+    pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball], backend: Threads) -> Vec<f64> {
         balls
             .iter()
             .map(|b| {
@@ -287,9 +287,9 @@ mod tests {
         // The top face of a slab, far from its edges: half of every ball is solid.
         let slab = cuboid(Vec3::new(-4.0, -4.0, -1.0), Vec3::new(4.0, 4.0, 0.0));
         let spec = GridSpec::for_scene(slab.bounds(), 256).unwrap();
-        let solid = Solid::new(voxelize(&slab, &spec, Backend::Serial));
+        let solid = Solid::new(voxelize(&slab, &spec, Threads::Serial));
         let top = spec.to_grid(Vec3::new(0.1, -0.2, 0.0));
-        let v = skin(solid.bits(), Backend::Serial)
+        let v = skin(solid.bits(), Threads::Serial)
             .iter_ones()
             .filter(|s| s[0] as i64 == top.x as i64 && s[1] as i64 == top.y as i64)
             .max_by_key(|s| s[2])
@@ -299,7 +299,7 @@ mod tests {
             &solid,
             v,
             &radii,
-            Backend::Serial,
+            Threads::Serial,
         )) {
             // The centre's own layer of voxels tips the balance by at most
             // half a disc of the ball.
@@ -323,11 +323,11 @@ mod tests {
         let m = uv_sphere(Vec3::ZERO, big_r, 128, 256);
         let spec = GridSpec::for_scene(m.bounds(), 256).unwrap();
         // The centre-sampled interior is an unbiased picture of the solid.
-        let solid = Solid::new(fill_solid(&m, &spec, Backend::Serial));
+        let solid = Solid::new(fill_solid(&m, &spec, Threads::Serial));
         let centre = spec.to_grid(Vec3::ZERO);
         let c = [centre.x as u16, centre.y as u16, centre.z as u16];
         assert_eq!(
-            VolumeDescriptor::describe(&solid, c, &[0.5], Backend::Serial)[0],
+            VolumeDescriptor::describe(&solid, c, &[0.5], Threads::Serial)[0],
             1.0
         );
         // The topmost solid voxel above the centre, a point near the surface.
@@ -340,10 +340,10 @@ mod tests {
         let d = spec.center(top).length();
         for r in [0.1, 0.2, 0.4, 0.8] {
             let want = lens(big_r, r, d) / (4.0 / 3.0 * PI * r * r * r);
-            let got = VolumeDescriptor::describe(&solid, top, &[r], Backend::Serial)[0];
+            let got = VolumeDescriptor::describe(&solid, top, &[r], Threads::Serial)[0];
             // Counting errors shrink with the radius in counting units
             // (voxels, or blocks at coarse levels).
-            let ball = volume_ball(r / spec.voxel_size).bind(&solid, Backend::Serial);
+            let ball = volume_ball(r / spec.voxel_size).bind(&solid, Threads::Serial);
             let tol = 0.05 / (ball.radius() / f64::from(1u32 << ball.level()));
             assert!((got - want).abs() < tol, "r {r}: {got} vs {want}");
         }

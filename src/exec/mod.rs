@@ -1,15 +1,18 @@
-//! Execution backends: the same per-item function, run serially or with rayon.
+//! How the CPU's threads run: the same per-item function, serially or with
+//! rayon. (The device a search's layers run on, CPU or GPU, is another
+//! choice: `--backend` on the CLI, `matchGpu` in JavaScript.)
 //!
-//! Every parallel step in the pipeline goes through [`Backend`], and every one
+//! Every parallel step in the pipeline goes through [`Threads`], and every one
 //! of them produces results in input order or combines them with an
-//! order-independent operation (bitwise OR), so the two backends give
-//! identical results; a test at the top level checks it on whole searches.
+//! order-independent operation (bitwise OR), so serial and parallel runs
+//! give identical results; a test at the top level checks it on whole
+//! searches.
 
 use std::ops::Range;
 
-/// How data-parallel work runs.
+/// How data-parallel work runs on the CPU's threads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Backend {
+pub enum Threads {
     /// One thread, in order.
     Serial,
     /// rayon's current thread pool (serial when the `parallel` feature is off).
@@ -17,10 +20,10 @@ pub enum Backend {
     Parallel,
 }
 
-impl Backend {
+impl Threads {
     /// Whether work really runs on several threads.
     pub fn is_parallel(self) -> bool {
-        cfg!(feature = "parallel") && self == Backend::Parallel
+        cfg!(feature = "parallel") && self == Threads::Parallel
     }
 
     /// Calls `f` on consecutive sub-ranges of `0..len` of about `grain` items.
@@ -78,7 +81,7 @@ impl Backend {
         items.into_iter().filter_map(f).collect()
     }
 
-    /// Like [`Backend::filter_map_owned`] over `items` paired with
+    /// Like [`Threads::filter_map_owned`] over `items` paired with
     /// `values` in order (equal lengths).
     pub fn filter_map_zipped<T, V, R, F>(self, items: Vec<T>, values: Vec<V>, f: F) -> Vec<R>
     where
@@ -142,7 +145,7 @@ impl Backend {
         (0..len).map(f).collect()
     }
 
-    /// Like [`Backend::map`] for a few expensive items (milliseconds each,
+    /// Like [`Threads::map`] for a few expensive items (milliseconds each,
     /// such as verifying a placement): every item may go to its own thread,
     /// where `map` hands out at least 64 at a time and so runs a short list
     /// on one thread.
@@ -216,23 +219,23 @@ mod tests {
     fn backends_agree() {
         let f = |i: usize| i.is_multiple_of(3).then_some(i * i);
         assert_eq!(
-            Backend::Serial.filter_map(10_000, f),
-            Backend::Parallel.filter_map(10_000, f)
+            Threads::Serial.filter_map(10_000, f),
+            Threads::Parallel.filter_map(10_000, f)
         );
         assert_eq!(
-            Backend::Serial.map_each(100, |i| i * i),
-            Backend::Parallel.map_each(100, |i| i * i)
+            Threads::Serial.map_each(100, |i| i * i),
+            Threads::Parallel.map_each(100, |i| i * i)
         );
         // Each item meets its own value, and the kept ones stay in order.
-        let zipped = |b: Backend| {
+        let zipped = |b: Threads| {
             let items: Vec<usize> = (0..10_000).collect();
             let values: Vec<usize> = (0..10_000).map(|i| 3 * i).collect();
             b.filter_map_zipped(items, values, |i, v| i.is_multiple_of(7).then_some((i, v)))
         };
         let expected: Vec<(usize, usize)> = (0..10_000).step_by(7).map(|i| (i, 3 * i)).collect();
-        assert_eq!(zipped(Backend::Serial), expected);
-        assert_eq!(zipped(Backend::Parallel), expected);
-        for b in [Backend::Serial, Backend::Parallel] {
+        assert_eq!(zipped(Threads::Serial), expected);
+        assert_eq!(zipped(Threads::Parallel), expected);
+        for b in [Threads::Serial, Threads::Parallel] {
             let sum = AtomicUsize::new(0);
             b.for_each_range(1000, 7, |r| {
                 sum.fetch_add(r.sum::<usize>(), Ordering::Relaxed);

@@ -9,7 +9,7 @@ use std::rc::Rc;
 use super::{Gpu, KernelQueue, storage};
 use crate::descriptor::harmonics::{Signature, SphereSampler};
 use crate::descriptor::{LayerBatch, LocalFuture};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::voxel::{Ball, Solid};
 
 /// What a kernel reads of a solid.
@@ -70,7 +70,7 @@ impl<'a> GpuSolid<'a> {
             return Ok(u.clone());
         }
         let grid = self.solid.bits();
-        let level = |l| self.solid.level(l, Backend::Serial);
+        let level = |l| self.solid.level(l, Threads::Serial);
         // Borrowed where the layout already fits: the driver copies them
         // anyway, and a copy of our own held a large level twice.
         let (bytes, dims, row_stride): (Cow<[u8]>, _, _) = match cells {

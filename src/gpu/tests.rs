@@ -4,7 +4,7 @@
 use super::*;
 use crate::descriptor::SphericalTransform;
 use crate::descriptor::harmonics::{DEGREES, SphereSampler, describe_sphere};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::shapes::{cuboid, torus, uv_sphere};
 use crate::voxel::{GridSpec, Solid, skin, voxelize};
@@ -46,7 +46,7 @@ pub(crate) fn test_gpu() -> Gpu {
 
 /// Every `step`-th voxel of `solid`'s skin, at most `most` of them.
 fn skin_sample(solid: &Solid, step: usize, most: usize) -> Vec<[u16; 3]> {
-    skin(solid.bits(), Backend::Serial)
+    skin(solid.bits(), Threads::Serial)
         .iter_ones()
         .step_by(step)
         .take(most)
@@ -62,7 +62,7 @@ fn lumpy_solid(voxel: f64) -> Solid {
     ));
     m.append(&torus(Vec3::new(-0.2, 0.5, 0.3), 0.35, 0.1, 48, 16));
     let spec = GridSpec::around(m.bounds(), voxel).unwrap();
-    Solid::new(voxelize(&m, &spec, Backend::Serial))
+    Solid::new(voxelize(&m, &spec, Threads::Serial))
 }
 
 #[test]
@@ -77,7 +77,7 @@ fn gpu_signatures_equal_the_cpus_within_the_stated_error() {
     // Radii in voxels from a few (the bit grid) to past the shape (pyramid
     // levels, and samples outside the grid).
     for radius in [3.5, 12.0, 25.0, 47.0, 90.0] {
-        let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
+        let sampler = SphereSampler::new(radius, &solid, Threads::Serial);
         levels.push(sampler.level());
         let got = pollster::block_on(spheres.signatures(&sampler, &voxels)).unwrap();
         let mut worst = 0.0f32;
@@ -113,7 +113,7 @@ fn a_spheres_sample_tables_are_uploaded_once_for_every_part() {
         let voxels = skin_sample(&solid, 53, 100);
         let on_gpu = GpuSolid::new(&gpu, &solid);
         for radius in [4.5, 30.0] {
-            let sampler = SphereSampler::new(radius, &solid, Backend::Serial);
+            let sampler = SphereSampler::new(radius, &solid, Threads::Serial);
             let got = pollster::block_on(on_gpu.signatures(&sampler, &voxels)).unwrap();
             for (v, g) in voxels.iter().zip(&got) {
                 let want = describe_sphere(&solid, *v, &sampler, &t);
@@ -143,7 +143,7 @@ fn gpu_ball_counts_equal_the_cpus() {
     for radius in [2.5, 7.0, 12.0, 30.0, 61.0] {
         let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
         levels.push(level);
-        let ball = Ball::build(radius, level, Backend::Serial).bind(&solid, Backend::Serial);
+        let ball = Ball::build(radius, level, Threads::Serial).bind(&solid, Threads::Serial);
         let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
         // The default lanes for this many candidates, and one lane, a few
         // and a whole workgroup per candidate (a layer's last candidates).
@@ -174,7 +174,7 @@ fn a_balls_run_tables_are_uploaded_once_for_every_part() {
         let solid = lumpy_solid(voxel);
         let on_gpu = GpuSolid::new(&gpu, &solid);
         for ball in [&small, &large] {
-            let ball = ball.clone().bind(&solid, Backend::Serial);
+            let ball = ball.clone().bind(&solid, Threads::Serial);
             let voxels = skin_sample(&solid, 31, usize::MAX);
             let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
             let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
@@ -201,7 +201,7 @@ fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
         .iter()
         .map(|solid| {
             let voxels = skin_sample(solid, 17, usize::MAX);
-            (ball.clone().bind(solid, Backend::Serial), voxels)
+            (ball.clone().bind(solid, Threads::Serial), voxels)
         })
         .collect();
     let on_gpu: Vec<GpuSolid> = solids

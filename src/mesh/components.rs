@@ -9,12 +9,12 @@ use std::sync::atomic::AtomicU32;
 use std::sync::atomic::Ordering::Relaxed;
 
 use super::{TriMesh, weld_vertices_on};
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// The triangles of each connected component (joined through welded
 /// vertices), in order of their first triangle; triangles ascending. The
 /// weld and the joining use `backend`'s threads.
-pub fn connected_components(mesh: &TriMesh, backend: Backend) -> Vec<Vec<u32>> {
+pub fn connected_components(mesh: &TriMesh, backend: Threads) -> Vec<Vec<u32>> {
     let (ids, welded) = weld_vertices_on(mesh.positions(), backend);
     let parent: Vec<AtomicU32> = (0..welded as u32).map(AtomicU32::new).collect();
     let triangles = mesh.triangles();
@@ -97,7 +97,7 @@ mod tests {
         mesh.append(&cuboid(Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 1.0, 1.0)));
         mesh.append(&cuboid(Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.5, 2.0, 1.0)));
         mesh.append(&uv_sphere(Vec3::new(5.0, 0.0, 0.0), 1.0, 8, 12));
-        let c = connected_components(&mesh, Backend::Parallel);
+        let c = connected_components(&mesh, Threads::Parallel);
         let sizes: Vec<usize> = c.iter().map(Vec::len).collect();
         let sphere = mesh.triangles().len() - 36;
         assert_eq!(sizes, [24, 12, sphere]);
@@ -115,7 +115,7 @@ mod tests {
     fn solids_that_only_overlap_are_separate() {
         let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE);
         mesh.append(&cuboid(Vec3::splat(0.5), Vec3::splat(1.5)));
-        assert_eq!(connected_components(&mesh, Backend::Parallel).len(), 2);
+        assert_eq!(connected_components(&mesh, Threads::Parallel).len(), 2);
     }
 
     /// Many threads joining at once find the sets one thread finds: random
@@ -166,9 +166,9 @@ mod tests {
             expected[k].push(i as u32);
         }
         assert!(expected.len() > groups as usize, "{}", expected.len());
-        assert_eq!(connected_components(&mesh, Backend::Serial), expected);
+        assert_eq!(connected_components(&mesh, Threads::Serial), expected);
         for _ in 0..3 {
-            assert_eq!(connected_components(&mesh, Backend::Parallel), expected);
+            assert_eq!(connected_components(&mesh, Threads::Parallel), expected);
         }
     }
 }

@@ -6,14 +6,14 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// Maps every vertex to a dense id shared by all vertices at exactly the same
 /// position, numbered in order of first appearance; returns the ids and how
 /// many distinct positions there are. By sorting, on `backend`'s threads:
 /// the same ids as [`weld_vertices`]'s hash map, and faster on a whole
 /// scene even on one thread (crowd-rocker's components 63-70 -> 27-28 ms).
-pub fn weld_vertices_on(positions: &[[f32; 3]], backend: Backend) -> (Vec<u32>, usize) {
+pub fn weld_vertices_on(positions: &[[f32; 3]], backend: Threads) -> (Vec<u32>, usize) {
     let key = |p: [f32; 3]| p.map(|c| (c + 0.0).to_bits());
     let mut keyed: Vec<([u32; 3], u32)> =
         backend.map(positions.len(), |i| (key(positions[i]), i as u32));
@@ -110,8 +110,8 @@ mod tests {
                 [j as f32 * 0.5, (j % 13) as f32, z]
             })
             .collect();
-        let serial = weld_vertices_on(&p, Backend::Serial);
+        let serial = weld_vertices_on(&p, Threads::Serial);
         assert_eq!(serial.1, 3001);
-        assert_eq!(serial, weld_vertices_on(&p, Backend::Parallel));
+        assert_eq!(serial, weld_vertices_on(&p, Threads::Parallel));
     }
 }

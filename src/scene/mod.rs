@@ -8,7 +8,7 @@ use crate::clock::now_ms;
 use crate::descriptor::curvature::Surface;
 use crate::error::MemoryEstimate;
 use crate::error::{Error, Result};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Aabb;
 use crate::mesh::TriMesh;
 use crate::voxel::{GridSpec, PADDING, WindowedMesh};
@@ -57,8 +57,8 @@ pub struct SceneOptions {
     pub max_voxel_work: f64,
     /// Serial or parallel. Default: parallel.
     #[cfg_attr(feature = "serde", serde(skip))]
-    #[cfg_attr(feature = "cli", arg(skip = Backend::Parallel))]
-    pub backend: Backend,
+    #[cfg_attr(feature = "cli", arg(skip = Threads::Parallel))]
+    pub backend: Threads,
 }
 
 impl SceneOptions {
@@ -67,7 +67,7 @@ impl SceneOptions {
         resolution: 512,
         memory_budget: 2 << 30,
         max_voxel_work: (1u64 << 27) as f64,
-        backend: Backend::Parallel,
+        backend: Threads::Parallel,
     };
 
     /// With another resolution.
@@ -89,7 +89,7 @@ impl SceneOptions {
     }
 
     /// With another backend.
-    pub const fn with_backend(mut self, backend: Backend) -> Self {
+    pub const fn with_backend(mut self, backend: Threads) -> Self {
         self.backend = backend;
         self
     }
@@ -127,7 +127,7 @@ pub struct Scene {
     mesh: TriMesh,
     spec: GridSpec,
     resolution: u32,
-    backend: Backend,
+    backend: Threads,
     memory_budget: u64,
     max_voxel_work: f64,
     parts: Vec<ScenePart>,
@@ -206,7 +206,7 @@ impl Scene {
     }
 
     /// The threads the scene's builds use, and so the searches on it.
-    pub fn backend(&self) -> Backend {
+    pub fn backend(&self) -> Threads {
         self.backend
     }
 
@@ -448,7 +448,7 @@ pub(crate) fn check_voxel_work(
     voxel_size: f64,
     resolution: u32,
     limit: f64,
-    backend: Backend,
+    backend: Threads,
 ) -> Result<()> {
     let work = voxel_work(mesh, voxel_size, backend);
     if work <= limit {

@@ -2,7 +2,7 @@
 //! skin voxels (the candidates) and the voxels near its surface.
 
 use crate::clock::now_ms;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::voxel::{Grid, GridSpec, Solid, WindowedMesh, dilate, skin, voxelize};
@@ -18,7 +18,7 @@ pub struct PartVoxels {
 impl PartVoxels {
     /// Voxelizes `mesh` on `spec`: its solid, skin and the voxels near its
     /// surface.
-    pub(crate) fn build(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> PartVoxels {
+    pub(crate) fn build(mesh: &TriMesh, spec: &GridSpec, backend: Threads) -> PartVoxels {
         let start = now_ms();
         let grid = voxelize(mesh, spec, backend);
         PartVoxels::from_solid(grid, start, backend)
@@ -29,14 +29,14 @@ impl PartVoxels {
     pub(crate) fn build_window(
         mesh: &WindowedMesh,
         spec: &GridSpec,
-        backend: Backend,
+        backend: Threads,
     ) -> PartVoxels {
         let start = now_ms();
         let grid = mesh.voxelize(spec, backend);
         PartVoxels::from_solid(grid, start, backend)
     }
 
-    fn from_solid(grid: Grid, start: f64, backend: Backend) -> PartVoxels {
+    fn from_solid(grid: Grid, start: f64, backend: Threads) -> PartVoxels {
         let skin_grid = skin(&grid, backend);
         let near_surface = dilate(&skin_grid, backend);
         // Sized exactly: a messy part's skin can run to tens of millions of

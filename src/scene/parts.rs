@@ -2,7 +2,7 @@
 //! boxes overlap (a template of several shells), each with its bounding
 //! sphere and box.
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Aabb;
 use crate::mesh::{TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere};
 
@@ -19,7 +19,7 @@ pub struct ScenePart {
 impl ScenePart {
     /// The parts of `mesh` made of each of `lists`, their spheres and boxes
     /// found on `backend`'s threads.
-    fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Backend) -> Vec<ScenePart> {
+    fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Threads) -> Vec<ScenePart> {
         let shapes = backend.map_each(lists.len(), |k| ScenePart::shape(mesh, &lists[k]));
         lists
             .into_iter()
@@ -67,7 +67,7 @@ impl ScenePart {
 }
 
 /// The connected parts of `mesh` with their bounds and bounding spheres.
-pub(super) fn split_parts(mesh: &TriMesh, backend: Backend) -> Vec<ScenePart> {
+pub(super) fn split_parts(mesh: &TriMesh, backend: Threads) -> Vec<ScenePart> {
     ScenePart::all(mesh, connected_components(mesh, backend), backend)
 }
 
@@ -76,7 +76,7 @@ pub(super) fn split_parts(mesh: &TriMesh, backend: Backend) -> Vec<ScenePart> {
 pub(super) fn join_overlapping(
     mesh: &TriMesh,
     parts: &[ScenePart],
-    backend: Backend,
+    backend: Threads,
 ) -> Vec<ScenePart> {
     let mut group: Vec<usize> = (0..parts.len()).collect();
     fn root(group: &mut [usize], mut i: usize) -> usize {

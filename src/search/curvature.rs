@@ -1,7 +1,6 @@
 //! The curvature pipeline: the scene's welded mesh, its vertices as
 //! candidates, the mirror test, then grouping.
 
-use crate::options::MatchOptions;
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
 use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
 use crate::cascade::{LayerStats, Observer, Survivor, run_cascade_in_chunks};
@@ -12,6 +11,7 @@ use crate::error::MemoryEstimate;
 use crate::error::Result;
 use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;
+use crate::options::MatchOptions;
 use crate::scene::Scene;
 use crate::template::{CurvatureTemplate, TemplateSource};
 

@@ -18,11 +18,11 @@
 use crate::descriptor::harmonics::{Signature, SphereSampler, describe_sphere, harmonics_distance};
 use crate::descriptor::{SphericalTransform, VolumeDescriptor};
 use crate::error::Result;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
-use crate::scene::{PartVoxels, nearest_voxel};
 use crate::options::{DescriptorKind, MatchOptions};
+use crate::scene::{PartVoxels, nearest_voxel};
 use crate::voxel::{Ball, GridSpec};
 
 /// c_T is kept unless it drifts by more than this many thresholds: on the
@@ -74,7 +74,7 @@ pub(super) fn stable_anchor(
     radii: &[f64],
     thresholds: Thresholds,
     spacing: u32,
-    backend: Backend,
+    backend: Threads,
 ) -> Result<Anchor> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
@@ -178,7 +178,7 @@ pub(super) fn further_anchors(
     radii: &[f64],
     thresholds: Thresholds,
     spacing: u32,
-    backend: Backend,
+    backend: Threads,
 ) -> Result<Vec<[u16; 3]>> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
@@ -236,7 +236,7 @@ fn turn_drifts(
     turns: &[glam::DQuat],
     radii: &[f64],
     thresholds: Thresholds,
-    backend: Backend,
+    backend: Threads,
 ) -> Result<Vec<f64>> {
     let spec = voxels.grid().spec();
     let mut worst = vec![0.0f64; anchors.len()];
@@ -369,7 +369,7 @@ struct Reader<'a> {
     spheres: Option<Vec<SphereSampler>>,
     volume: bool,
     transform: &'a SphericalTransform,
-    backend: Backend,
+    backend: Threads,
 }
 
 impl<'a> Reader<'a> {
@@ -379,7 +379,7 @@ impl<'a> Reader<'a> {
         radii: &[f64],
         thresholds: Thresholds,
         transform: &'a SphericalTransform,
-        backend: Backend,
+        backend: Threads,
     ) -> Reader<'a> {
         let solid = voxels.solid();
         let voxel = solid.bits().spec().voxel_size;

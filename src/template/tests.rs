@@ -2,17 +2,17 @@
 //! errors a user can cause, each with the advice it gives.
 
 use super::*;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::mesh::shapes::{cuboid, uv_sphere};
-use crate::scene::SceneOptions;
 use crate::options::MatchOptions;
+use crate::scene::SceneOptions;
 
 /// [`VoxelTemplate::new`] as every test here calls it: the one place to change
 /// when its signature does.
 fn voxel_template(source: &TemplateSource, scene: &Scene, layers: usize) -> Result<VoxelTemplate> {
     let options = MatchOptions {
         layers,
-        backend: Backend::Serial,
+        backend: Threads::Serial,
         ..MatchOptions::DEFAULT
     };
     VoxelTemplate::new(source, scene, &scene.lattice(), &options)
@@ -33,7 +33,7 @@ fn sphere_scene(resolution: u32) -> Scene {
         uv_sphere(Vec3::ZERO, 1.0, 24, 48),
         &SceneOptions::DEFAULT
             .with_resolution(resolution)
-            .with_backend(Backend::Serial),
+            .with_backend(Threads::Serial),
     )
     .unwrap()
 }

@@ -10,8 +10,8 @@ use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
-use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
 use crate::options::MatchOptions;
+use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
 use crate::voxel::GridSpec;
 
 /// The anchor of a template of `radius` and `layers` voxelized on `voxels`

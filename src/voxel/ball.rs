@@ -5,7 +5,7 @@
 //! moments over them, and the harmonics clutter guard reuses the volume
 //! stage's balls.
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::voxel::{CountLevel, Grid, Solid};
 
@@ -92,11 +92,11 @@ pub struct Ball {
 impl Ball {
     /// The ball of `radius` voxels read at pyramid level `level`.
     pub fn at_level(radius: f64, level: u32) -> Ball {
-        Ball::build(radius, level, Backend::Serial)
+        Ball::build(radius, level, Threads::Serial)
     }
 
     /// Like [`Ball::at_level`], computing the phases with `backend`.
-    pub fn build(radius: f64, level: u32, backend: Backend) -> Ball {
+    pub fn build(radius: f64, level: u32, backend: Threads) -> Ball {
         let s = 1i64 << level;
         // A centre in the upper half of its block along an axis sees the
         // ball of the mirrored position, mirrored: only the lower halves
@@ -203,7 +203,7 @@ impl Ball {
     /// counting there never builds it. The runs fit any solid: a run's row
     /// is found from the level's layout as it is read, so one ball serves
     /// every part of a search (clones share the runs).
-    pub fn for_solid(self, solid: &Solid, backend: Backend) -> Ball {
+    pub fn for_solid(self, solid: &Solid, backend: Threads) -> Ball {
         if self.level > 0 {
             solid.level(self.level, backend);
         }
@@ -217,7 +217,7 @@ impl Ball {
     /// stored beside it: a copy of the runs' size for this solid alone,
     /// which the CPU's counting reads faster than it finds each row (a
     /// third less time on a volume layer's many candidates).
-    pub fn bind(self, solid: &Solid, backend: Backend) -> Ball {
+    pub fn bind(self, solid: &Solid, backend: Threads) -> Ball {
         let ball = self.for_solid(solid, backend);
         if ball.level == 0 {
             return ball;
@@ -254,7 +254,7 @@ impl Ball {
                 self.phases[0].voxels,
             );
         }
-        let level = solid.level(self.level, Backend::Serial);
+        let level = solid.level(self.level, Threads::Serial);
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
         let d = level.dims().map(|x| x as i64);
@@ -292,7 +292,7 @@ impl Ball {
         if self.level == 0 {
             return self.count(solid, v);
         }
-        let level = solid.level(self.level, Backend::Serial);
+        let level = solid.level(self.level, Threads::Serial);
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
         (count_runs(level, phase, c), phase.voxels)
@@ -316,7 +316,7 @@ impl Ball {
         mut visit: impl FnMut(Vec3, u32),
     ) {
         assert!(self.level > 0, "blocks exist from level 1");
-        let level = solid.level(self.level, Backend::Serial);
+        let level = solid.level(self.level, Threads::Serial);
         let s = 1i64 << self.level;
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
@@ -496,7 +496,7 @@ mod tests {
     fn exact_counting_matches_brute_force_near_and_away_from_the_border() {
         let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
         let spec = GridSpec::for_scene(m.bounds(), 40).unwrap();
-        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
+        let solid = Solid::new(voxelize(&m, &spec, Threads::Serial));
         let ball = exact(6.7);
         for v in [
             [20u16, 20, 20],
@@ -518,14 +518,14 @@ mod tests {
         // A real, irregular model, at the radii the pipeline uses.
         let m = crate::mesh::io::load(&crate::shared_bytes("models/cow.obj"), None).unwrap();
         let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
-        let solid = Solid::new(voxelize(&m, &spec, Backend::Parallel));
-        let skin: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+        let solid = Solid::new(voxelize(&m, &spec, Threads::Parallel));
+        let skin: Vec<[u16; 3]> = skin(solid.bits(), Threads::Serial)
             .iter_ones()
             .step_by(37)
             .collect();
         for r in [13.0, 26.0, 41.0, 70.0] {
             let coarse =
-                Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS)).bind(&solid, Backend::Serial);
+                Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS)).bind(&solid, Threads::Serial);
             assert!(coarse.level() > 0);
             let fine = exact(r);
             let (mut worst, mut sum) = (0.0f64, 0.0);
@@ -566,18 +566,18 @@ mod tests {
         // candidate reads, inside the grid and across its border.
         let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
         let spec = GridSpec::for_scene(m.bounds(), 90).unwrap();
-        let solid = Solid::new(voxelize(&m, &spec, Backend::Serial));
-        let mut points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial)
+        let solid = Solid::new(voxelize(&m, &spec, Threads::Serial));
+        let mut points: Vec<[u16; 3]> = skin(solid.bits(), Threads::Serial)
             .iter_ones()
             .step_by(7)
             .collect();
         points.extend([[0, 0, 0], [45, 45, 45], [2, 47, 88]]);
         for r in [10.0, 20.0, 40.0] {
             let unbound = Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS));
-            let bound = unbound.clone().bind(&solid, Backend::Serial);
+            let bound = unbound.clone().bind(&solid, Threads::Serial);
             // Rows found as they are read (what a part searched on the GPU
             // counts with).
-            let unstored = unbound.clone().for_solid(&solid, Backend::Serial);
+            let unstored = unbound.clone().for_solid(&solid, Threads::Serial);
             assert!(bound.level() > 0);
             for &v in &points {
                 let want = unbound.count_once(&solid, v);

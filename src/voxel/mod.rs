@@ -22,11 +22,11 @@ pub use skin::{dilate, skin, spaced};
 pub use surface::voxelize_surface;
 pub use window::WindowedMesh;
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::mesh::TriMesh;
 
 /// The solid voxels of a mesh: its surface voxels and its filled interior.
-pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
+pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Threads) -> Grid {
     // Finding shells is partly serial: it overlaps the surface pass.
     let (solid, interior) = backend.join(
         || voxelize_surface(mesh, spec, backend),

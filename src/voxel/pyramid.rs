@@ -15,7 +15,7 @@
 use std::sync::OnceLock;
 
 use super::grid::Grid;
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// Levels 1..=MAX_LEVEL can be built (level 0 is the bit grid itself).
 pub const MAX_LEVEL: u32 = 5;
@@ -85,13 +85,13 @@ impl CountLevel {
     /// Block occupancy (solid fraction x 255), x fastest, then y, then z;
     /// made now if needed, on this thread.
     pub fn occupancy(&self) -> &[u8] {
-        self.occupancy_with(Backend::Serial)
+        self.occupancy_with(Threads::Serial)
     }
 
     /// [`CountLevel::occupancy`], made with `backend` if needed. Made
     /// outside the lock, as levels are: a thread that waited for it inside
     /// a parallel loop could be handed that loop's own work.
-    pub fn occupancy_with(&self, backend: Backend) -> &[u8] {
+    pub fn occupancy_with(&self, backend: Threads) -> &[u8] {
         if let Some(o) = self.occupancy.get() {
             return o;
         }
@@ -121,7 +121,7 @@ impl CountLevel {
     fn build(
         level: u32,
         dims: [usize; 3],
-        backend: Backend,
+        backend: Threads,
         count: impl Fn(usize, &mut [u32]) + Sync + Send,
     ) -> CountLevel {
         let stride = dims[0] + 1;
@@ -151,7 +151,7 @@ impl CountLevel {
 
     /// Level 1 from the bit grid: the four fine rows of a block row are
     /// summed as bit-pair counts in 4-bit fields, 16 blocks per operation.
-    fn first(grid: &Grid, backend: Backend) -> CountLevel {
+    fn first(grid: &Grid, backend: Threads) -> CountLevel {
         let [nx, ny, nz] = grid.dims();
         let dims = [nx.div_ceil(2), ny.div_ceil(2), nz.div_ceil(2)];
         let wpr = grid.words_per_row();
@@ -188,7 +188,7 @@ impl CountLevel {
     }
 
     /// Level l + 1 from level l.
-    fn next(&self, backend: Backend) -> CountLevel {
+    fn next(&self, backend: Threads) -> CountLevel {
         let d = self.dims;
         let dims = [d[0].div_ceil(2), d[1].div_ceil(2), d[2].div_ceil(2)];
         CountLevel::build(self.level + 1, dims, backend, |r, out| {
@@ -228,7 +228,7 @@ impl Solid {
     }
 
     /// Level `level` (1..=MAX_LEVEL), built now if needed (with `backend`).
-    pub fn level(&self, level: u32, backend: Backend) -> &CountLevel {
+    pub fn level(&self, level: u32, backend: Threads) -> &CountLevel {
         assert!(
             (1..=MAX_LEVEL).contains(&level),
             "pyramid level {level} out of range"
@@ -275,7 +275,7 @@ mod tests {
         }
         let solid = Solid::new(g.clone());
         for level in 1..=4 {
-            let l = solid.level(level, Backend::Parallel);
+            let l = solid.level(level, Threads::Parallel);
             let sc = l.scale() as i64;
             for z in 0..l.dims()[2] {
                 for y in 0..l.dims()[1] {

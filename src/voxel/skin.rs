@@ -3,7 +3,7 @@
 //! centre, a surface point, could be.
 
 use super::grid::Grid;
-use crate::exec::Backend;
+use crate::exec::Threads;
 
 /// One voxel of `skin` (sorted by (z, y, x)) per cube of `spacing`
 /// voxels a side: the first in that order. The indices of those kept, in
@@ -31,7 +31,7 @@ pub fn spaced(skin: &[[u16; 3]], spacing: u16) -> Vec<u32> {
 }
 
 /// The skin of a solid grid (voxels outside the grid count as empty).
-pub fn skin(solid: &Grid, backend: Backend) -> Grid {
+pub fn skin(solid: &Grid, backend: Threads) -> Grid {
     let [_, ny, nz] = solid.dims();
     let wpr = solid.words_per_row();
     let words = solid.words();
@@ -73,7 +73,7 @@ pub fn skin(solid: &Grid, backend: Backend) -> Grid {
 /// The grid grown by one voxel in every direction (the 3 x 3 x 3
 /// neighbourhood of each set voxel): "within a voxel of the surface" becomes
 /// a single bit test.
-pub fn dilate(grid: &Grid, backend: Backend) -> Grid {
+pub fn dilate(grid: &Grid, backend: Threads) -> Grid {
     let [nx, ny, nz] = grid.dims();
     let wpr = grid.words_per_row();
     let words = grid.words();
@@ -154,7 +154,7 @@ mod tests {
         let mut g = Grid::new(spec);
         g.set(63, 2, 2);
         g.set(0, 0, 0);
-        for backend in [Backend::Serial, Backend::Parallel] {
+        for backend in [Threads::Serial, Threads::Parallel] {
             let d = dilate(&g, backend);
             let mut n = 0;
             for z in 0..5 {

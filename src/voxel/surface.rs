@@ -10,12 +10,12 @@
 //! solid fill then completes.
 
 use super::grid::{AtomicGrid, Grid, GridSpec};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::{Vec3, dominant_axis};
 use crate::mesh::TriMesh;
 
 /// The voxels touched by the mesh's surface.
-pub fn voxelize_surface(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
+pub fn voxelize_surface(mesh: &TriMesh, spec: &GridSpec, backend: Threads) -> Grid {
     let all: Vec<u32> = (0..mesh.triangles().len() as u32).collect();
     voxelize_triangles(mesh, &all, spec, backend)
 }
@@ -25,7 +25,7 @@ pub(crate) fn voxelize_triangles(
     mesh: &TriMesh,
     triangles: &[u32],
     spec: &GridSpec,
-    backend: Backend,
+    backend: Threads,
 ) -> Grid {
     let grid = AtomicGrid::new(*spec);
     backend.for_each_range(triangles.len(), 8192, |range| {

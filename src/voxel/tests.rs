@@ -26,8 +26,8 @@ fn sphere_volume_is_analytic_within_one_percent() {
     let want = 4.0 / 3.0 * PI * r * r * r;
     for res in [128, 512] {
         let spec = spec_for(&m, res);
-        let interior = fill_solid(&m, &spec, Backend::Parallel);
-        let solid = voxelize(&m, &spec, Backend::Parallel);
+        let interior = fill_solid(&m, &spec, Threads::Parallel);
+        let solid = voxelize(&m, &spec, Threads::Parallel);
         // Centre sampling is unbiased; the surface voxels add at most a layer.
         assert!(
             rel_err(volume(&interior), want) < 0.01,
@@ -53,8 +53,8 @@ fn cube_volume_is_analytic_within_one_percent() {
         .unwrap();
     let want = 1.0;
     let spec = spec_for(&m, 512);
-    let solid = volume(&voxelize(&m, &spec, Backend::Parallel));
-    let interior = volume(&fill_solid(&m, &spec, Backend::Parallel));
+    let solid = volume(&voxelize(&m, &spec, Threads::Parallel));
+    let interior = volume(&fill_solid(&m, &spec, Threads::Parallel));
     assert!(rel_err(solid, want) < 0.01, "solid {solid}");
     assert!(rel_err(interior, want) < 0.005, "interior {interior}");
 }
@@ -68,8 +68,8 @@ fn a_sphere_with_a_hole_fills_like_the_closed_one() {
         .unwrap();
     assert!(open.triangles().len() < m.triangles().len());
     let spec = spec_for(&m, 128);
-    let closed = fill_solid(&m, &spec, Backend::Serial);
-    let holed = fill_solid(&open, &spec, Backend::Serial);
+    let closed = fill_solid(&m, &spec, Threads::Serial);
+    let holed = fill_solid(&open, &spec, Threads::Serial);
     let differ = closed
         .words()
         .iter()
@@ -93,7 +93,7 @@ fn overlapping_shells_fill_their_union() {
     let lens = PI * (4.0 + d) * (2.0 - d).powi(2) / 12.0;
     let want = 2.0 * 4.0 / 3.0 * PI - lens;
     let spec = spec_for(&m, 256);
-    let got = volume(&fill_solid(&m, &spec, Backend::Parallel));
+    let got = volume(&fill_solid(&m, &spec, Threads::Parallel));
     assert!(rel_err(got, want) < 0.01, "{got} vs {want}");
 }
 
@@ -111,12 +111,12 @@ fn orientation_does_not_matter() {
     .unwrap();
     let spec = spec_for(&m, 128);
     assert_eq!(
-        fill_solid(&m, &spec, Backend::Serial),
-        fill_solid(&flipped, &spec, Backend::Serial)
+        fill_solid(&m, &spec, Threads::Serial),
+        fill_solid(&flipped, &spec, Threads::Serial)
     );
     // The hole of the torus stays empty.
     let centre = spec.to_grid(Vec3::ZERO);
-    let g = fill_solid(&m, &spec, Backend::Serial);
+    let g = fill_solid(&m, &spec, Threads::Serial);
     assert!(!g.get(centre.x as i64, centre.y as i64, centre.z as i64));
     let want = 2.0 * PI * PI * 1.0 * 0.35 * 0.35;
     assert!(rel_err(volume(&g), want) < 0.02);
@@ -128,8 +128,8 @@ fn serial_and_parallel_voxelizations_are_identical() {
     m.append(&uv_sphere(Vec3::new(0.5, 0.2, 0.1), 0.6, 32, 64));
     let spec = spec_for(&m, 100);
     assert_eq!(
-        voxelize(&m, &spec, Backend::Serial),
-        voxelize(&m, &spec, Backend::Parallel)
+        voxelize(&m, &spec, Threads::Serial),
+        voxelize(&m, &spec, Threads::Parallel)
     );
 }
 
@@ -142,9 +142,9 @@ fn skin_of_a_box_is_its_outer_layer() {
         dims: [12, 8, 6],
     };
     let m = cuboid(Vec3::new(1.2, 1.2, 1.2), Vec3::new(10.8, 6.8, 4.8));
-    let solid = fill_solid(&m, &spec, Backend::Serial);
+    let solid = fill_solid(&m, &spec, Threads::Serial);
     assert_eq!(solid.count_ones(), 10 * 6 * 4);
-    let s = skin(&solid, Backend::Serial);
+    let s = skin(&solid, Threads::Serial);
     assert_eq!(s.count_ones(), 10 * 6 * 4 - 8 * 4 * 2);
     assert!(s.get(1, 1, 1) && !s.get(5, 3, 2));
 }
@@ -171,7 +171,7 @@ fn the_open_bunny_fills_like_its_winding_number() {
     let mesh = crate::mesh::io::load(&bytes, Some(crate::Format::Obj))
         .unwrap_or_else(|e| panic!("the shared stanford-bunny.obj does not load: {e}"));
     let spec = spec_for(&mesh, 96);
-    let solid = fill_solid(&mesh, &spec, Backend::Parallel);
+    let solid = fill_solid(&mesh, &spec, Threads::Parallel);
     let mut state: u64 = 7;
     let (mut agree, mut total) = (0, 0);
     let b: Aabb = mesh.bounds();
@@ -257,8 +257,8 @@ fn a_window_holds_the_whole_grids_voxels_off_its_border() {
     let mut whole_spec = spec_for(&mesh, 80);
     whole_spec.origin -= Vec3::splat(0.37 * whole_spec.voxel_size);
     whole_spec.dims = whole_spec.dims.map(|d| d + 1);
-    let whole = voxelize(&mesh, &whole_spec, Backend::Parallel);
-    let windowed = WindowedMesh::new(mesh.clone(), Backend::Parallel);
+    let whole = voxelize(&mesh, &whole_spec, Threads::Parallel);
+    let windowed = WindowedMesh::new(mesh.clone(), Threads::Parallel);
     let b = mesh.bounds();
     let boxes = [
         (Vec3::new(-0.2, -0.2, -0.2), Vec3::new(0.3, 0.5, 0.1)),
@@ -268,7 +268,7 @@ fn a_window_holds_the_whole_grids_voxels_off_its_border() {
     ];
     for (lo, hi) in boxes {
         let spec = whole_spec.crop(Aabb { min: lo, max: hi }, 3).unwrap();
-        let window = windowed.voxelize(&spec, Backend::Parallel);
+        let window = windowed.voxelize(&spec, Threads::Parallel);
         let shift = ((spec.origin - whole_spec.origin) / spec.voxel_size)
             .round()
             .to_array()

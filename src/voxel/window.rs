@@ -13,7 +13,7 @@
 use super::fill::{Shell, fill_shells, shells};
 use super::grid::{Grid, GridSpec};
 use super::surface::voxelize_triangles;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::TriMesh;
 
@@ -27,7 +27,7 @@ pub struct WindowedMesh {
 
 impl WindowedMesh {
     /// Splits `mesh` (one part) into shells and boxes its triangles.
-    pub fn new(mesh: TriMesh, backend: Backend) -> WindowedMesh {
+    pub fn new(mesh: TriMesh, backend: Threads) -> WindowedMesh {
         let shells = shells(&mesh, backend);
         let boxes = (0..mesh.triangles().len())
             .map(|t| {
@@ -67,7 +67,7 @@ impl WindowedMesh {
 
     /// The solid voxels of the window `spec`, equal to the whole part's off
     /// its outermost layer.
-    pub fn voxelize(&self, spec: &GridSpec, backend: Backend) -> Grid {
+    pub fn voxelize(&self, spec: &GridSpec, backend: Threads) -> Grid {
         let bounds = Aabb {
             min: spec.origin,
             max: spec.origin

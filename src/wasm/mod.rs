@@ -87,7 +87,7 @@ pub fn thread_count() -> usize {
 /// chunks of at least 64.
 #[wasm_bindgen(js_name = threadsUsed)]
 pub fn threads_used(tasks: u32) -> usize {
-    let ran_on = crate::exec::Backend::Parallel.map(tasks as usize, |i| {
+    let ran_on = crate::exec::Threads::Parallel.map(tasks as usize, |i| {
         // Enough work per task that one thread cannot drain the queue
         // before the others wake up.
         let mut x = i as u64 | 1;

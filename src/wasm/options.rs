@@ -15,8 +15,8 @@ use serde_json::{Map, Number, Value};
 use wasm_bindgen::prelude::*;
 
 use crate::error::{FileText, Format};
-use crate::scene::SceneOptions;
 use crate::options::MatchOptions;
+use crate::scene::SceneOptions;
 
 #[wasm_bindgen]
 extern "C" {

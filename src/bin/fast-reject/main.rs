@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use fast_reject::Format;
 use fast_reject::error::FileText;
-use fast_reject::exec::Backend;
+use fast_reject::exec::Threads;
 use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::{load_with_resources, sniff};
@@ -139,8 +139,8 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
                 MAX_THREADS_PER_CORE * cores
             ));
         }
-        Some(1) => Backend::Serial,
-        _ => Backend::Parallel,
+        Some(1) => Threads::Serial,
+        _ => Threads::Parallel,
     };
     let descriptor = args.options.descriptor;
     let mut options = args.options;

@@ -251,7 +251,7 @@ fn falling_length(a: Vec3, b: Vec3, r: f64, radius: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::descriptor::curvature::CurvatureDescriptor;
-    use crate::exec::Backend;
+    use crate::exec::Threads;
     use crate::mesh::shapes::{torus, uv_sphere};
 
     #[test]
@@ -259,7 +259,7 @@ mod tests {
         // The weight's integral over a sphere's cap equals the flat disc's
         // (Archimedes), so the layers hold the sphere's 1 / R^2.
         let radius = 2.0;
-        let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192), Backend::Parallel);
+        let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192), Threads::Parallel);
         let v = s.nearest_vertex(Vec3::new(radius, 0.0, 0.0)).unwrap();
         for shape in [KernelShape::Falling, KernelShape::FlatCentre] {
             for norm in [KernelNorm::Disc, KernelNorm::Area] {
@@ -279,7 +279,7 @@ mod tests {
         // w = 1 is the search's descriptor: every other kernel differs
         // from it by its weight alone. A coarse torus, whose triangles the
         // spheres cut at every radius (and the quadrature with them).
-        let s = Surface::new(&torus(Vec3::ZERO, 2.0, 0.7, 40, 16), Backend::Parallel);
+        let s = Surface::new(&torus(Vec3::ZERO, 2.0, 0.7, 40, 16), Threads::Parallel);
         let radii = [0.3, 0.6, 0.9, 1.2, 1.5];
         for v in (0..s.vertex_count() as u32).step_by(37) {
             let search = CurvatureDescriptor::describe(&s, v, &radii);

@@ -168,11 +168,11 @@ impl VertexSample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exec::Backend;
+    use crate::exec::Threads;
     use crate::mesh::shapes::uv_sphere;
 
     fn sphere() -> Surface {
-        Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96), Backend::Parallel)
+        Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96), Threads::Parallel)
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! the triangles that share them, and each edge's signed dihedral angle,
 //! which the curvature descriptor needs.
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{TriMesh, weld_vertices_on};
 
@@ -115,7 +115,7 @@ impl PatchLayout {
 
     /// Each patch's bounds, area and border, from `surface`, whose
     /// triangles are already in this layout's order.
-    fn summarize(self, surface: &Surface, backend: Backend) -> Patches {
+    fn summarize(self, surface: &Surface, backend: Threads) -> Patches {
         let count = self.start.len() - 1;
         let mut of_triangle = vec![0u32; surface.triangles.len()];
         for (p, w) in self.start.windows(2).enumerate() {
@@ -280,7 +280,7 @@ impl Surface {
     /// of the surface) and builds its adjacency, with `backend`'s threads
     /// (every backend builds the same surface: sorts have unique keys, and
     /// parallel steps keep their input order).
-    pub fn new(mesh: &TriMesh, backend: Backend) -> Surface {
+    pub fn new(mesh: &TriMesh, backend: Threads) -> Surface {
         let (welded, count) = weld_vertices_on(mesh.positions(), backend);
         let mut positions = vec![Vec3::ZERO; count];
         for (i, &id) in welded.iter().enumerate() {

@@ -1,5 +1,5 @@
 use super::*;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::shapes::uv_sphere;
@@ -40,7 +40,7 @@ fn height_field(n: usize, height: impl Fn(f64, f64) -> f64) -> TriMesh {
 #[test]
 fn a_sphere_has_curvature_one_over_r_squared_at_every_radius() {
     let radius = 2.0;
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192), Backend::Parallel);
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, radius, 96, 192), Threads::Parallel);
     // Away from the poles, where the tessellation is most regular.
     let v = nearest_vertex(&s, Vec3::new(radius, 0.0, 0.0));
     let radii = [0.3, 0.6, 0.9, 1.2];
@@ -52,7 +52,7 @@ fn a_sphere_has_curvature_one_over_r_squared_at_every_radius() {
 
 #[test]
 fn a_plane_has_none() {
-    let s = Surface::new(&height_field(40, |_, _| 0.0), Backend::Parallel);
+    let s = Surface::new(&height_field(40, |_, _| 0.0), Threads::Parallel);
     let v = nearest_vertex(&s, Vec3::ZERO);
     for g in CurvatureDescriptor::describe(&s, v, &[0.2, 0.4, 0.6]) {
         assert!(g.abs() < 1e-9, "{g}");
@@ -64,7 +64,7 @@ fn a_cylinder_has_about_none() {
     // z = sqrt(R^2 - x^2): curved across x only.
     let s = Surface::new(
         &height_field(80, |x, _| (4.0 - x * x).sqrt()),
-        Backend::Parallel,
+        Threads::Parallel,
     );
     let v = nearest_vertex(&s, Vec3::new(0.0, 0.0, 2.0));
     for g in CurvatureDescriptor::describe(&s, v, &[0.2, 0.4, 0.6]) {
@@ -78,7 +78,7 @@ fn a_saddle_is_negative() {
     // z = (x^2 - y^2) / 2: K = -1 at the origin.
     let s = Surface::new(
         &height_field(80, |x, y| 0.5 * (x * x - y * y)),
-        Backend::Parallel,
+        Threads::Parallel,
     );
     let v = nearest_vertex(&s, Vec3::ZERO);
     let g = CurvatureDescriptor::describe(&s, v, &[0.2]);
@@ -103,8 +103,8 @@ fn rotation_and_reindexing_change_nothing() {
     )
     .unwrap();
     let (a, b) = (
-        Surface::new(&squashed, Backend::Parallel),
-        Surface::new(&reordered, Backend::Parallel),
+        Surface::new(&squashed, Threads::Parallel),
+        Surface::new(&reordered, Threads::Parallel),
     );
     let radii = [0.15, 0.3, 0.45];
     for v in [0u32, 100, 300, 700] {
@@ -122,8 +122,8 @@ fn rotation_and_reindexing_change_nothing() {
 #[test]
 fn retessellation_changes_little() {
     let want = 1.0;
-    let coarse = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96), Backend::Parallel);
-    let fine = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 96, 160), Backend::Parallel);
+    let coarse = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 48, 96), Threads::Parallel);
+    let fine = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 96, 160), Threads::Parallel);
     let radii = [0.3, 0.5];
     for s in [&coarse, &fine] {
         let v = nearest_vertex(s, Vec3::new(0.0, 1.0, 0.0));
@@ -135,7 +135,7 @@ fn retessellation_changes_little() {
 
 #[test]
 fn layers_grow_the_same_neighbourhood_as_a_fresh_gather() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Backend::Parallel);
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Threads::Parallel);
     let v = nearest_vertex(&s, Vec3::new(1.0, 0.0, 0.0));
     let radii = [0.2, 0.4, 0.8];
     let incremental = CurvatureDescriptor::describe(&s, v, &radii);
@@ -151,8 +151,8 @@ fn a_separate_sheet_inside_the_ball_is_ignored() {
     let mut both = plane.clone();
     both.append(&uv_sphere(Vec3::new(0.0, 0.0, 0.35), 0.2, 16, 32));
     let (a, b) = (
-        Surface::new(&plane, Backend::Parallel),
-        Surface::new(&both, Backend::Parallel),
+        Surface::new(&plane, Threads::Parallel),
+        Surface::new(&both, Threads::Parallel),
     );
     let v = nearest_vertex(&a, Vec3::ZERO);
     assert_eq!(
@@ -167,7 +167,7 @@ fn bumpy() -> Surface {
         &height_field(60, |x, y| {
             0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.2 * x * y
         }),
-        Backend::Parallel,
+        Threads::Parallel,
     )
 }
 
@@ -247,7 +247,7 @@ fn rejecting_by_the_bounds_keeps_what_the_exact_values_keep() {
 
 #[test]
 fn the_cascade_distance_grows_layer_by_layer() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Backend::Parallel);
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 32, 64), Threads::Parallel);
     let radii = [0.2, 0.4];
     let d = CurvatureDescriptor::new(&s, &radii, &[0.0, 0.0], 10.0);
     let v = nearest_vertex(&s, Vec3::new(1.0, 0.0, 0.0));
@@ -283,8 +283,8 @@ fn a_mirror_image_keeps_the_curvature_and_flips_the_handedness() {
     )
     .unwrap();
     let (a, b) = (
-        Surface::new(&m, Backend::Parallel),
-        Surface::new(&mirrored, Backend::Parallel),
+        Surface::new(&m, Threads::Parallel),
+        Surface::new(&mirrored, Threads::Parallel),
     );
     let radii = [0.3, 0.6, 0.9];
     let mut clear = 0;

@@ -50,7 +50,7 @@ use super::{LayerBatch, LocalFuture};
 
 use super::volume::closest;
 use super::{Anchors, MAX_ANCHORS, all_anchors};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::voxel::{Ball, Solid};
 
 /// Bandwidth: 2B x 2B samples per sphere.
@@ -158,7 +158,7 @@ impl<'a> HarmonicsDescriptor<'a> {
         radii: &[f64],
         templates: Vec<Vec<Signature>>,
         threshold: f64,
-        backend: Backend,
+        backend: Threads,
     ) -> Self {
         assert!((1..=MAX_ANCHORS).contains(&templates.len()));
         let voxel = solid.bits().spec().voxel_size;
@@ -288,7 +288,7 @@ impl<'a> HarmonicsDescriptor<'a> {
         v: [u16; 3],
         radii: &[f64],
         transform: &SphericalTransform,
-        backend: Backend,
+        backend: Threads,
     ) -> Vec<Signature> {
         let voxel = solid.bits().spec().voxel_size;
         radii
@@ -360,7 +360,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
     /// lead that passes fewer of [`ORDER_SAMPLE`] candidates spread over the
     /// list (an excused sphere passes): about 130 spheres to save thousands
     /// where the scene favours the other lead. Only speed depends on it.
-    fn order(&self, candidates: &[u32], backend: Backend) -> Vec<usize> {
+    fn order(&self, candidates: &[u32], backend: Threads) -> Vec<usize> {
         let (clean, k) = (
             self.clean_layers.min(self.spheres.len()),
             self.spheres.len(),

@@ -4,7 +4,7 @@
 
 use super::transform::{phi, theta};
 use super::{RINGS, SECTORS};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::voxel::{Grid, Solid, level_for_radius};
 use std::sync::OnceLock;
 
@@ -68,7 +68,7 @@ pub struct SphereSampler {
 
 impl SphereSampler {
     /// The sampling pattern of a sphere of `radius` voxels on `solid`.
-    pub fn new(radius: f64, solid: &Solid, backend: Backend) -> SphereSampler {
+    pub fn new(radius: f64, solid: &Solid, backend: Threads) -> SphereSampler {
         let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
         let grid = solid.bits();
         let dims = grid.dims();
@@ -261,7 +261,7 @@ impl SphereSampler {
 
     /// Level > 0: trilinear interpolation of block occupancy.
     fn sample_blocks(&self, solid: &Solid, v: [u16; 3], out: &mut [f32; RINGS * SECTORS]) {
-        let level = solid.level(self.level, Backend::Serial);
+        let level = solid.level(self.level, Threads::Serial);
         let dims = level.dims();
         let occ = level.occupancy();
         let (row, plane) = (dims[0], dims[0] * dims[1]);

@@ -2,7 +2,7 @@
 
 use super::transform::{fejer_weights, normalized_legendre, phi, theta};
 use super::*;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::shapes::{cuboid, torus, uv_sphere};
@@ -199,9 +199,9 @@ fn signatures_at(
     t: &SphericalTransform,
 ) -> Vec<Signature> {
     let spec = GridSpec::around(mesh.bounds(), voxel).unwrap();
-    let g = Solid::new(voxelize(mesh, &spec, Backend::Serial));
+    let g = Solid::new(voxelize(mesh, &spec, Threads::Serial));
     let target = spec.to_grid(point);
-    let v = skin(g.bits(), Backend::Serial)
+    let v = skin(g.bits(), Threads::Serial)
         .iter_ones()
         .min_by(|a, b| {
             let da =
@@ -211,7 +211,7 @@ fn signatures_at(
             da.total_cmp(&db)
         })
         .unwrap();
-    HarmonicsDescriptor::describe(&g, v, radii, t, Backend::Serial)
+    HarmonicsDescriptor::describe(&g, v, radii, t, Threads::Serial)
 }
 
 fn distance(a: &[Signature], b: &[Signature]) -> f64 {
@@ -288,7 +288,7 @@ fn innermost_first(
 fn cluttered_lumpy(voxel: f64, near: Vec3) -> (Solid, [u16; 3], Solid, Vec<[u16; 3]>) {
     let template_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
     let tspec = GridSpec::around(template_mesh.bounds(), voxel).unwrap();
-    let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Backend::Serial));
+    let tsolid = Solid::new(voxelize(&template_mesh, &tspec, Threads::Serial));
     let tv = surface_voxel_near(&tsolid, near);
     let mut scene_mesh = lumpy(Vec3::new(1.0, 0.0, 0.0));
     scene_mesh.append(&cuboid(
@@ -297,15 +297,15 @@ fn cluttered_lumpy(voxel: f64, near: Vec3) -> (Solid, [u16; 3], Solid, Vec<[u16;
     ));
     scene_mesh.append(&torus(Vec3::new(1.6, 1.6, 0.0), 0.4, 0.15, 32, 12));
     let spec = GridSpec::around(scene_mesh.bounds(), voxel).unwrap();
-    let solid = Solid::new(voxelize(&scene_mesh, &spec, Backend::Serial));
-    let points: Vec<[u16; 3]> = skin(solid.bits(), Backend::Serial).iter_ones().collect();
+    let solid = Solid::new(voxelize(&scene_mesh, &spec, Threads::Serial));
+    let points: Vec<[u16; 3]> = skin(solid.bits(), Threads::Serial).iter_ones().collect();
     (tsolid, tv, solid, points)
 }
 
 /// The skin voxel of `solid` nearest `p`.
 fn surface_voxel_near(solid: &Solid, p: Vec3) -> [u16; 3] {
     let spec = solid.bits().spec();
-    skin(solid.bits(), Backend::Serial)
+    skin(solid.bits(), Threads::Serial)
         .iter_ones()
         .min_by(|a, b| {
             let d = |v: &[u16; 3]| spec.center(*v).distance(p);
@@ -330,17 +330,17 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
             &tsolid,
             tv,
             &radii,
-            Backend::Serial,
+            Threads::Serial,
         )],
         1.0,
-        Backend::Serial,
+        Threads::Serial,
     );
     let guard = ClutterGuard {
         policy: ClutterPolicy::DEFAULT,
         balls: volume.balls(),
         templates: volume.templates(),
     };
-    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Backend::Serial);
+    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Threads::Serial);
     let stage = |threshold: f64| {
         HarmonicsDescriptor::new(
             &solid,
@@ -349,7 +349,7 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
             &radii,
             vec![template.clone()],
             threshold,
-            Backend::Serial,
+            Threads::Serial,
         )
         .with_clutter(ClutterGuard { ..guard })
     };
@@ -408,13 +408,13 @@ fn the_selective_order_keeps_the_survivors_of_the_innermost_first_order() {
     }
     // And the cascade, with the lead the stage picks.
     let candidates: Vec<u32> = (0..points.len() as u32).collect();
-    let order = h.order(&candidates, Backend::Serial);
+    let order = h.order(&candidates, Threads::Serial);
     assert!(order == [3, 4, 5, 2, 1, 0] || order == [4, 5, 3, 2, 1, 0]);
     let (survivors, stats) = finished(run_cascade(
         &[&h],
         candidates,
         1,
-        Backend::Serial,
+        Threads::Serial,
         None,
         &mut (),
     ))
@@ -440,9 +440,9 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
     let volume = |anchors: &[[u16; 3]]| {
         let templates = anchors
             .iter()
-            .map(|&a| VolumeDescriptor::describe(&tsolid, a, &radii, Backend::Serial))
+            .map(|&a| VolumeDescriptor::describe(&tsolid, a, &radii, Threads::Serial))
             .collect();
-        VolumeDescriptor::new(&solid, &points, &radii, templates, 0.4, Backend::Serial)
+        VolumeDescriptor::new(&solid, &points, &radii, templates, 0.4, Threads::Serial)
             .with_clutter(ClutterPolicy::DEFAULT)
     };
     let run = |anchors: &[[u16; 3]]| -> Vec<Survivor> {
@@ -454,10 +454,10 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
             &radii,
             anchors
                 .iter()
-                .map(|&a| HarmonicsDescriptor::describe(&tsolid, a, &radii, &t, Backend::Serial))
+                .map(|&a| HarmonicsDescriptor::describe(&tsolid, a, &radii, &t, Threads::Serial))
                 .collect(),
             2.0,
-            Backend::Serial,
+            Threads::Serial,
         )
         .with_clutter(ClutterGuard {
             policy: ClutterPolicy::DEFAULT,
@@ -470,7 +470,7 @@ fn a_cascade_of_two_anchors_passes_the_union_of_one_anchor_cascades() {
             &[&v, &h],
             candidates,
             all,
-            Backend::Parallel,
+            Threads::Parallel,
             None,
             &mut (),
         ))
@@ -593,12 +593,12 @@ fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
             &tsolid,
             tv,
             &radii,
-            Backend::Serial,
+            Threads::Serial,
         )],
         1.0,
-        Backend::Serial,
+        Threads::Serial,
     );
-    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Backend::Serial);
+    let template = HarmonicsDescriptor::describe(&tsolid, tv, &radii, &t, Threads::Serial);
     let stage = |threshold: f64| {
         HarmonicsDescriptor::new(
             &solid,
@@ -607,7 +607,7 @@ fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
             &radii,
             vec![template.clone()],
             threshold,
-            Backend::Serial,
+            Threads::Serial,
         )
         .with_clutter(ClutterGuard {
             policy: ClutterPolicy::DEFAULT,
@@ -621,7 +621,7 @@ fn a_batch_within_its_bound_keeps_exactly_the_cpus_survivors() {
             &[h],
             candidates.clone(),
             1,
-            Backend::Parallel,
+            Threads::Parallel,
             batch,
             &mut (),
         ))

@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::hash::Hasher;
 
 use crate::align::Rigid;
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{FxHasher, TriMesh, VertexNumbering};
 use glam::DMat3;
@@ -238,7 +238,7 @@ const BATCH_TRIANGLES: usize = 1 << 18;
 pub(super) fn congruent_parts(
     mesh: &TriMesh,
     parts: &[&[u32]],
-    backend: Backend,
+    backend: Threads,
 ) -> Vec<Option<(usize, Rigid)>> {
     let kept_limit = KEPT_BYTES_PER_TRIANGLE * mesh.triangles().len();
     congruent_parts_keeping(mesh, parts, backend, kept_limit)
@@ -249,7 +249,7 @@ pub(super) fn congruent_parts(
 fn congruent_parts_keeping(
     mesh: &TriMesh,
     parts: &[&[u32]],
-    backend: Backend,
+    backend: Threads,
     kept_limit: usize,
 ) -> Vec<Option<(usize, Rigid)>> {
     let mut copies = vec![None; parts.len()];
@@ -383,7 +383,7 @@ mod tests {
             ])
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
-        let copies = congruent_parts(&scene, &lists, Backend::Serial);
+        let copies = congruent_parts(&scene, &lists, Threads::Serial);
         let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|(j, _)| j)).collect();
         assert_eq!(originals, [None, Some(0), None, None, None, Some(0)]);
         // The motion takes the first ring onto the second.
@@ -445,13 +445,13 @@ mod tests {
             None,
             None,
         ];
-        assert_eq!(originals(&scene, Backend::Serial), expected);
-        assert_eq!(originals(&scene, Backend::Parallel), expected);
-        assert_eq!(originals(&strewn, Backend::Serial), expected);
-        assert_eq!(originals(&strewn, Backend::Parallel), expected);
+        assert_eq!(originals(&scene, Threads::Serial), expected);
+        assert_eq!(originals(&scene, Threads::Parallel), expected);
+        assert_eq!(originals(&strewn, Threads::Serial), expected);
+        assert_eq!(originals(&strewn, Threads::Parallel), expected);
         // Nothing kept: every original read again, the same copies.
         let read_again: Vec<Option<usize>> =
-            congruent_parts_keeping(&scene, &lists, Backend::Parallel, 0)
+            congruent_parts_keeping(&scene, &lists, Threads::Parallel, 0)
                 .iter()
                 .map(|c| c.map(|(j, _)| j))
                 .collect();
@@ -489,7 +489,7 @@ mod tests {
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
         let start = std::time::Instant::now();
-        let copies = congruent_parts(&scene, &lists, Backend::Serial);
+        let copies = congruent_parts(&scene, &lists, Threads::Serial);
         let took = start.elapsed();
         let found: Vec<(usize, usize)> = copies
             .iter()

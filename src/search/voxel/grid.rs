@@ -14,8 +14,8 @@ use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, LayerBatch, VolumeDescriptor, all_anchors};
 use crate::error::Result;
 use crate::instances::Instance;
-use crate::scene::{PartVoxels, ScenePart};
 use crate::options::DescriptorKind;
+use crate::scene::{PartVoxels, ScenePart};
 use crate::voxel::spaced;
 
 impl PartSearch<'_> {

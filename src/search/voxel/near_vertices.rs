@@ -14,7 +14,7 @@
 use std::collections::HashSet;
 use std::hash::BuildHasherDefault;
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::{FxHasher, TriMesh};
 use crate::voxel::{AtomicGrid, Grid, GridSpec, dilate};
@@ -88,7 +88,7 @@ impl NearVertices {
         triangles: &[u32],
         bounds: Aabb,
         reach: f64,
-        backend: Backend,
+        backend: Threads,
     ) -> Option<NearVertices> {
         let e = bounds.extent();
         // Padding aside, the cells over the box: a side of `reach`, or
@@ -206,7 +206,7 @@ mod tests {
         // A slab of two triangles a face: vertices only at its corners.
         let slab = cuboid(Vec3::new(-10.0, -10.0, -0.2), Vec3::ZERO);
         let triangles: Vec<u32> = (0..slab.triangles().len() as u32).collect();
-        let near = NearVertices::new(&slab, &triangles, slab.bounds(), 0.5, Backend::Serial)
+        let near = NearVertices::new(&slab, &triangles, slab.bounds(), 0.5, Threads::Serial)
             .expect("cells");
         // Within reach of a corner: near. The middle of the top face, and
         // anywhere beyond a few cells of every corner: not.
@@ -237,7 +237,7 @@ mod tests {
         let cube = cuboid(Vec3::splat(-50.0), Vec3::splat(50.0));
         let triangles: Vec<u32> = (0..cube.triangles().len() as u32).collect();
         let reach = 0.05;
-        let near = NearVertices::new(&cube, &triangles, cube.bounds(), reach, Backend::Serial)
+        let near = NearVertices::new(&cube, &triangles, cube.bounds(), reach, Threads::Serial)
             .expect("cells");
         assert!(near.fine.is_some());
         let corner = Vec3::splat(50.0);

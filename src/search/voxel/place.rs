@@ -123,7 +123,7 @@ fn align_instances(
     template: &VoxelTemplate,
     max_hidden: f64,
     surface_tolerance: f64,
-    backend: crate::exec::Backend,
+    backend: crate::exec::Threads,
 ) {
     if samples.is_empty() {
         return;

@@ -37,7 +37,7 @@ mod shells;
 mod tests;
 
 use super::grid::{AtomicGrid, Grid, GridSpec};
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::math::{Vec3, floor};
 use crate::mesh::TriMesh;
 use columns::{Columns, DENSE_WORDS_PER_CROSSING, DENSE_WORDS_PER_VOTE, vote_sparse};
@@ -46,7 +46,7 @@ pub(crate) use shells::{Shell, shells};
 
 /// The voxels whose centre lies inside the mesh's solid (the surface itself
 /// is not included; see [`super::voxelize`]).
-pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Backend) -> Grid {
+pub fn fill_solid(mesh: &TriMesh, spec: &GridSpec, backend: Threads) -> Grid {
     fill_shells(mesh, &shells(mesh, backend), spec, backend)
 }
 
@@ -58,7 +58,7 @@ pub(crate) fn fill_shells(
     mesh: &TriMesh,
     shells: &[Shell],
     spec: &GridSpec,
-    backend: Backend,
+    backend: Threads,
 ) -> Grid {
     let out = AtomicGrid::new(*spec);
     backend.for_each_range(shells.len(), 1, |range| {
@@ -114,7 +114,7 @@ fn fill_shell(
     shell: &Shell,
     spec: &GridSpec,
     out: &AtomicGrid,
-    backend: Backend,
+    backend: Threads,
     path: Path,
 ) {
     if path == Path::Cheaper && !shell.closed && shell.triangles.len() == 1 {
@@ -207,7 +207,7 @@ fn fill_shell(
     let axes = if corners.len() >= 4096 {
         backend
     } else {
-        Backend::Serial
+        Threads::Serial
     };
     axes.for_each_row(&mut parity, 1, |axis, slot| {
         slot[0] = parity_along(axis, &corners, &block);

@@ -1,6 +1,6 @@
 //! Shells: the edge-connected components of a part, each filled on its own.
 
-use crate::exec::Backend;
+use crate::exec::Threads;
 use crate::mesh::{TriMesh, weld_vertices};
 
 /// The triangles of one edge-connected component, and whether it is closed.
@@ -21,7 +21,7 @@ pub(crate) struct Shell {
 /// meshes are separate objects), and instances of one mesh share its
 /// connectivity, computed once. Distinct parts are split into shells in
 /// parallel: that was the serial half of filling a scene.
-pub(crate) fn shells(mesh: &TriMesh, backend: Backend) -> Vec<Shell> {
+pub(crate) fn shells(mesh: &TriMesh, backend: Threads) -> Vec<Shell> {
     let parts = mesh.parts();
     let local_tris: Vec<Vec<[u32; 3]>> = parts
         .iter()

@@ -7,12 +7,12 @@ use crate::mesh::shapes::{cuboid, torus, uv_sphere};
 /// one-axis fill of closed ones.
 fn voted(mesh: &TriMesh, spec: &GridSpec) -> Grid {
     let out = AtomicGrid::new(*spec);
-    for shell in shells(mesh, Backend::Serial) {
+    for shell in shells(mesh, Threads::Serial) {
         let open = Shell {
             closed: false,
             ..shell
         };
-        fill_shell(mesh, &open, spec, &out, Backend::Serial, Path::Dense);
+        fill_shell(mesh, &open, spec, &out, Threads::Serial, Path::Dense);
     }
     out.into_grid()
 }
@@ -21,12 +21,12 @@ fn voted(mesh: &TriMesh, spec: &GridSpec) -> Grid {
 /// `open`), into one grid.
 fn filled(mesh: &TriMesh, spec: &GridSpec, path: Path, open: bool) -> Grid {
     let out = AtomicGrid::new(*spec);
-    for shell in shells(mesh, Backend::Serial) {
+    for shell in shells(mesh, Threads::Serial) {
         let shell = Shell {
             closed: shell.closed && !open,
             ..shell
         };
-        fill_shell(mesh, &shell, spec, &out, Backend::Serial, path);
+        fill_shell(mesh, &shell, spec, &out, Threads::Serial, path);
     }
     out.into_grid()
 }
@@ -258,17 +258,17 @@ fn closed_shells_are_told_from_open_ones_and_fill_alike() {
         Vec3::new(-1.0, -1.0, -1.6),
         Vec3::new(3.0, 1.0, -1.2),
     ));
-    let found = shells(&m, Backend::Serial);
+    let found = shells(&m, Threads::Serial);
     assert_eq!(found.len(), 3);
     assert!(found.iter().all(|s| s.closed));
     // A sphere with its south cap cut away is open.
     let open = m
         .filter_triangles(|t| m.corners(t).iter().all(|p| p.z > -0.96 || p.z < -1.1))
         .unwrap();
-    let found = shells(&open, Backend::Serial);
+    let found = shells(&open, Threads::Serial);
     assert_eq!(found.iter().filter(|s| !s.closed).count(), 1);
     let spec = GridSpec::for_scene(m.bounds(), 160).unwrap();
-    let one_axis = fill_solid(&m, &spec, Backend::Serial);
+    let one_axis = fill_solid(&m, &spec, Threads::Serial);
     assert!(one_axis.count_ones() > 0);
     assert_eq!(one_axis, voted(&m, &spec));
 }

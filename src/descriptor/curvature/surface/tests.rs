@@ -5,7 +5,7 @@ use crate::mesh::shapes::{cuboid, torus, uv_sphere};
 fn a_cube_has_convex_right_angles_and_flat_diagonals() {
     let s = Surface::new(
         &cuboid(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0)),
-        Backend::Parallel,
+        Threads::Parallel,
     );
     assert_eq!(s.vertex_count(), 8);
     let mut right = 0;
@@ -35,8 +35,8 @@ fn turning_a_mesh_inside_out_flips_every_angle() {
     )
     .unwrap();
     let (a, b) = (
-        Surface::new(&m, Backend::Parallel),
-        Surface::new(&flipped, Backend::Parallel),
+        Surface::new(&m, Threads::Parallel),
+        Surface::new(&flipped, Threads::Parallel),
     );
     let angles = |s: &Surface| {
         let mut v: Vec<([u32; 2], f64)> = s.edges.iter().map(|e| (e.ends, e.angle)).collect();
@@ -55,7 +55,7 @@ fn turning_a_mesh_inside_out_flips_every_angle() {
 fn boundary_edges_have_no_angle() {
     let m = uv_sphere(Vec3::ZERO, 1.0, 8, 16);
     let open = m.filter_triangles(|t| t != 0).unwrap();
-    let s = Surface::new(&open, Backend::Parallel);
+    let s = Surface::new(&open, Threads::Parallel);
     let zero = (0..s.edges.len() as u32)
         .filter(|&e| s.edge(e).angle == 0.0)
         .count();
@@ -64,7 +64,7 @@ fn boundary_edges_have_no_angle() {
 
 #[test]
 fn neighbours_share_an_edge() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 8, 16), Backend::Parallel);
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 8, 16), Threads::Parallel);
     for t in 0..s.triangles().len() as u32 {
         let n = s.neighbours(t);
         assert_eq!(n.len(), 3, "triangle {t}");
@@ -73,7 +73,7 @@ fn neighbours_share_an_edge() {
 
 #[test]
 fn patches_are_small_connected_and_cover_every_triangle_once() {
-    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 24, 48), Backend::Parallel);
+    let s = Surface::new(&uv_sphere(Vec3::ZERO, 1.0, 24, 48), Threads::Parallel);
     let mut seen = vec![0; s.triangles().len()];
     for p in 0..s.patch_count() as u32 {
         let tris: Vec<u32> = s.patch_triangles(p).collect();
@@ -137,8 +137,8 @@ fn both_backends_build_the_same_surface() {
     triangles.push([n, n + 1, n + 2]);
     let soup = TriMesh::new(positions, triangles).unwrap();
     let (serial, parallel) = (
-        Surface::new(&soup, Backend::Serial),
-        Surface::new(&soup, Backend::Parallel),
+        Surface::new(&soup, Threads::Serial),
+        Surface::new(&soup, Threads::Parallel),
     );
     assert_eq!(serial.vertex_count(), m.positions().len() + 1);
     assert!(serial == parallel);
