@@ -12,12 +12,14 @@ mod anchors;
 pub(crate) mod batch;
 pub mod clutter;
 pub mod curvature;
+mod device;
 pub mod harmonics;
 pub mod volume;
 
 pub use anchors::{Anchors, MAX_ANCHORS, all_anchors};
 pub use clutter::ClutterPolicy;
 pub use curvature::CurvatureDescriptor;
+pub use device::{LayerDevice, WaveQueue, run_together};
 pub use harmonics::{HarmonicsDescriptor, SphericalTransform};
 pub use volume::VolumeDescriptor;
 

@@ -10,11 +10,10 @@
 //! what it computed alone.
 
 use std::cell::RefCell;
-use std::future::poll_fn;
-use std::task::Poll;
 
-use super::{Gpu, Slot};
-use crate::descriptor::LocalFuture;
+use super::{Gpu, GpuSolid, Slot};
+use crate::descriptor::{LayerBatch, LocalFuture, WaveQueue};
+use crate::voxel::Solid;
 
 /// One kernel run with its buffers and bindings made, not yet encoded.
 pub(super) struct Prepared {
@@ -52,7 +51,7 @@ impl<'g> KernelQueue<'g> {
     }
 
     /// Queues `kernel` now; the future returns its output once
-    /// [`KernelQueue::run_together`] has submitted it.
+    /// [`WaveQueue::submit_waiting`] has submitted it.
     pub(super) fn enqueue(
         &self,
         kernel: Prepared,
@@ -63,53 +62,18 @@ impl<'g> KernelQueue<'g> {
             .push((kernel, Box::new(slot.setter())));
         slot
     }
+}
 
-    /// Runs `tasks` side by side and returns their outputs in order: each
-    /// is polled until it waits, and whenever all wait, the kernels they
-    /// queued go in one submission. Stops at the first task that fails
-    /// (the others are dropped).
-    pub async fn run_together<'a, T, E>(
-        &self,
-        tasks: Vec<LocalFuture<'a, Result<T, E>>>,
-    ) -> Result<Vec<T>, E> {
-        let mut live: Vec<Option<LocalFuture<'a, Result<T, E>>>> =
-            tasks.into_iter().map(Some).collect();
-        let mut outputs: Vec<Option<T>> = live.iter().map(|_| None).collect();
-        loop {
-            // Every live task once: each runs until it waits or ends.
-            let failed = poll_fn(|cx| {
-                for (task, output) in live.iter_mut().zip(outputs.iter_mut()) {
-                    let Some(future) = task else { continue };
-                    if let Poll::Ready(result) = future.as_mut().poll(cx) {
-                        *task = None;
-                        match result {
-                            Ok(value) => *output = Some(value),
-                            Err(e) => return Poll::Ready(Some(e)),
-                        }
-                    }
-                }
-                Poll::Ready(None)
-            })
-            .await;
-            if let Some(e) = failed {
-                // Kernels queued by the dropped tasks are never submitted.
-                self.waiting.borrow_mut().clear();
-                return Err(e);
-            }
-            if live.iter().all(Option::is_none) {
-                return Ok(outputs.into_iter().flatten().collect());
-            }
+impl WaveQueue for KernelQueue<'_> {
+    fn batch<'a>(&'a self, solid: &'a Solid) -> Box<dyn LayerBatch + 'a> {
+        Box::new(GpuSolid::queued(self, solid))
+    }
+
+    fn submit_waiting(&self) -> LocalFuture<'_, bool> {
+        Box::pin(async move {
             let queued = std::mem::take(&mut *self.waiting.borrow_mut());
             if queued.is_empty() {
-                // They wait on something else: the caller's event loop
-                // wakes them.
-                let mut yielded = false;
-                poll_fn(|_| match std::mem::replace(&mut yielded, true) {
-                    false => Poll::Pending,
-                    true => Poll::Ready(()),
-                })
-                .await;
-                continue;
+                return false;
             }
             let (kernels, deliveries): (Vec<Prepared>, Vec<Delivery>) = queued.into_iter().unzip();
             match self.gpu.submit(&kernels).await {
@@ -124,6 +88,11 @@ impl<'g> KernelQueue<'g> {
                     }
                 }
             }
-        }
+            true
+        })
+    }
+
+    fn discard_waiting(&self) {
+        self.waiting.borrow_mut().clear();
     }
 }

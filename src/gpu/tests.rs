@@ -216,7 +216,7 @@ fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
             Box::pin(g.counts(ball, voxels)) as crate::descriptor::LocalFuture<'_, _>
         })
         .collect();
-    let got = pollster::block_on(queue.run_together(tasks)).unwrap();
+    let got = pollster::block_on(crate::descriptor::run_together(&queue, tasks)).unwrap();
     assert_eq!(gpu.submissions(), (submissions + 1, kernels + 2));
     for ((solid, (ball, voxels)), got) in solids.iter().zip(&work).zip(got) {
         let want: Vec<u64> = voxels.iter().map(|&v| ball.count(solid, v).0).collect();
@@ -227,14 +227,14 @@ fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
         Box::pin(on_gpu[0].counts(&work[0].0, &work[0].1)),
         Box::pin(async { Err("refused".to_string()) }),
     ];
-    let failed = pollster::block_on(queue.run_together(tasks));
+    let failed = pollster::block_on(crate::descriptor::run_together(&queue, tasks));
     assert_eq!(failed, Err("refused".to_string()));
     assert_eq!(gpu.submissions().0, submissions + 1);
     // Tasks that never wait end in the first round.
     let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<u32, String>>> =
         vec![Box::pin(async { Ok(1) }), Box::pin(async { Ok(2) })];
     assert_eq!(
-        pollster::block_on(queue.run_together(tasks)),
+        pollster::block_on(crate::descriptor::run_together(&queue, tasks)),
         Ok(vec![1, 2])
     );
 }

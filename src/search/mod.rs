@@ -11,10 +11,10 @@ pub use crate::options::{DescriptorKind, MatchOptions};
 pub use report::{GpuInfo, GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
 
 use crate::cascade::Observer;
+use crate::descriptor::LayerDevice;
 use crate::error::Result;
 use crate::scene::Scene;
 use crate::template::TemplateSource;
-use voxel::GpuRef;
 
 /// Searches `scene` for every occurrence of `source`.
 pub fn search(
@@ -27,19 +27,19 @@ pub fn search(
     crate::cascade::finished(search_with(scene, source, options, observer, None))
 }
 
-/// Either search, with the voxel layers on `gpu` where one is given.
+/// Either search, with the voxel layers on `device` where one is given.
 async fn search_with(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
-    gpu: GpuRef<'_>,
+    device: Option<&dyn LayerDevice>,
 ) -> Result<MatchReport> {
     options.validate()?;
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
-    voxel::search_voxels(scene, source, options, observer, gpu).await
+    voxel::search_voxels(scene, source, options, observer, device).await
 }
 
 /// [`search`] with the volume and harmonics layers computed on `gpu`:

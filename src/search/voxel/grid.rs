@@ -80,9 +80,9 @@ impl PartSearch<'_> {
         candidates
     }
 
-    /// The volume and harmonics layers over `candidates`, on the GPU where
-    /// the runner has one: the survivors and each layer's figures. A layer
-    /// the GPU gave back to the CPU is noted in `found`.
+    /// The volume and harmonics layers over `candidates`, on the device
+    /// where the runner has one: the survivors and each layer's figures. A layer
+    /// the device gave back to the CPU is noted in `found`.
     async fn cascade(
         &self,
         voxels: &PartVoxels,
@@ -92,18 +92,13 @@ impl PartSearch<'_> {
     ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
         let (options, backend) = (self.options, self.options.backend);
         let radii = self.template.radii();
-        // The solid on the GPU, uploaded as its layers need it.
-        #[cfg(feature = "gpu")]
-        let on_gpu = match runner.queue {
-            Some(queue) => Some(crate::gpu::GpuSolid::queued(queue, voxels.solid())),
-            None => runner
-                .gpu
-                .map(|g| crate::gpu::GpuSolid::new(g, voxels.solid())),
+        // The solid on the device, uploaded as its layers need it.
+        let batch: Option<Box<dyn LayerBatch + '_>> = match (runner.wave, runner.device) {
+            (Some(wave), _) => Some(wave.batch(voxels.solid())),
+            (None, Some(device)) => Some(device.batch(voxels.solid())),
+            (None, None) => None,
         };
-        #[cfg(feature = "gpu")]
-        let on_device = on_gpu.is_some();
-        #[cfg(not(feature = "gpu"))]
-        let on_device = false;
+        let on_device = batch.is_some();
         let volume = VolumeDescriptor::with_balls(
             voxels.solid(),
             voxels.skin(),
@@ -144,16 +139,12 @@ impl PartSearch<'_> {
         if let Some(h) = &harmonics {
             stages.push(h);
         }
-        #[cfg(feature = "gpu")]
-        let batch = on_gpu.as_ref().map(|s| s as &dyn LayerBatch);
-        #[cfg(not(feature = "gpu"))]
-        let batch: Option<&dyn LayerBatch> = runner.gpu.map(|never| match *never {});
         let outcome = run_cascade(
             &stages,
             candidates,
             all_anchors(self.verifiers.len()),
             backend,
-            batch,
+            batch.as_deref(),
             &mut SharedObserver(runner.observer),
         )
         .await?;

@@ -23,6 +23,7 @@ use std::cell::RefCell;
 
 use crate::cascade::Observer;
 use crate::clock::now_ms;
+use crate::descriptor::LayerDevice;
 use crate::error::Result;
 use crate::instances::best_first;
 use crate::options::MatchOptions;
@@ -34,13 +35,6 @@ use place::moved_instance;
 use prepare::PartSearch;
 use waves::Found;
 
-/// The GPU a voxel search may use (nothing can be given without the
-/// `gpu` feature).
-#[cfg(feature = "gpu")]
-pub(super) type GpuRef<'a> = Option<&'a crate::gpu::Gpu>;
-#[cfg(not(feature = "gpu"))]
-pub(super) type GpuRef<'a> = Option<&'a std::convert::Infallible>;
-
 /// Searches `scene`'s skin voxels for `source` with the voxel descriptors,
 /// part by part: each connected part of the scene large enough to hold a
 /// copy is voxelized on its own, so that what touches it or sits in it does
@@ -50,7 +44,7 @@ pub(super) async fn search_voxels(
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
-    gpu: GpuRef<'_>,
+    device: Option<&dyn LayerDevice>,
 ) -> Result<MatchReport> {
     let t0 = now_ms();
     let searcher = PartSearch::new(scene, source, options)?;
@@ -64,7 +58,7 @@ pub(super) async fn search_voxels(
     let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
     let observer = RefCell::new(observer);
     let searched = searcher
-        .search_parts(&parts, &originals, &observer, gpu)
+        .search_parts(&parts, &originals, &observer, device)
         .await?;
     // In the parts' order, whether searched one by one or side by side.
     let mut found = Found::default();
@@ -95,7 +89,10 @@ pub(super) async fn search_voxels(
             windows: found.windows,
         }),
         surface: None,
-        gpu: gpu_info(gpu, found.gpu_fallback),
+        gpu: device.map(|d| GpuInfo {
+            adapter: d.description(),
+            fallback: found.gpu_fallback,
+        }),
         timings: Timings {
             template: template_ms,
             // Finding which parts copy others is part of matching: their
@@ -104,18 +101,4 @@ pub(super) async fn search_voxels(
             ..found.timings
         },
     })
-}
-
-/// The report's line on the GPU given.
-#[cfg(feature = "gpu")]
-fn gpu_info(gpu: GpuRef<'_>, fallback: Option<String>) -> Option<GpuInfo> {
-    gpu.map(|g| GpuInfo {
-        adapter: g.description(),
-        fallback,
-    })
-}
-
-#[cfg(not(feature = "gpu"))]
-fn gpu_info(_: GpuRef<'_>, _: Option<String>) -> Option<GpuInfo> {
-    None
 }

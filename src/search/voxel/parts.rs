@@ -4,16 +4,14 @@
 
 use std::cell::RefCell;
 
-use super::GpuRef;
 use super::near_vertices::NearVertices;
 use super::prepare::PartSearch;
-use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time};
-#[cfg(feature = "gpu")]
-use super::waves::{WAVE_PARTS, share_wave_time};
+use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share_wave_time};
 use super::windows::{Window, part_windows};
 use crate::budget::voxel_bytes;
 use crate::cascade::{LayerStats, Observer, finished};
 use crate::clock::now_ms;
+use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
 use crate::error::{Error, MemoryEstimate, Result};
 use crate::instances::{Instance, merge_duplicates};
 use crate::math::{Aabb, Vec3};
@@ -24,10 +22,9 @@ use crate::voxel::WindowedMesh;
 /// computes them besides the CPU, and what the search holds beside it.
 pub(super) struct Runner<'r, 'o> {
     pub(super) observer: &'r RefCell<&'o mut dyn Observer>,
-    pub(super) gpu: GpuRef<'r>,
+    pub(super) device: Option<&'r dyn LayerDevice>,
     /// Where its kernels wait for the others of its wave.
-    #[cfg(feature = "gpu")]
-    pub(super) queue: Option<&'r crate::gpu::KernelQueue<'r>>,
+    pub(super) wave: Option<&'r dyn WaveQueue>,
     pub(super) held: MemoryEstimate,
 }
 
@@ -50,58 +47,19 @@ impl<'a> PartSearch<'a> {
 
     /// What each part of `originals` (indices into `parts`) found, by
     /// index: side by side, in waves that fit the memory budget together.
-    /// On the CPU a wave's parts share the threads; on a GPU a layer is one
-    /// submission for all parts of a wave ([`crate::gpu::KernelQueue`]).
+    /// On the CPU a wave's parts share the threads; on a device a layer is
+    /// one submission for all parts of a wave.
     pub(super) async fn search_parts(
         &self,
         parts: &[(usize, &ScenePart)],
         originals: &[usize],
         observer: &RefCell<&mut dyn Observer>,
-        gpu: GpuRef<'_>,
+        device: Option<&dyn LayerDevice>,
     ) -> Result<Vec<Option<Found>>> {
         let mut searched: Vec<Option<Found>> = parts.iter().map(|_| None).collect();
-        #[cfg(feature = "gpu")]
-        if let Some(gpu) = gpu {
-            let queue = crate::gpu::KernelQueue::new(gpu);
-            for wave in self.waves(parts, originals, WAVE_PARTS) {
-                let started = now_ms();
-                let tasks: Vec<crate::descriptor::LocalFuture<'_, Result<Found>>> = wave
-                    .iter()
-                    .map(|(k, held)| {
-                        let (index, part) = parts[*k];
-                        let mut runner = Runner {
-                            observer,
-                            gpu: Some(gpu),
-                            queue: Some(&queue),
-                            held: held.clone(),
-                        };
-                        Box::pin(async move { self.part(index, part, &mut runner).await })
-                            as crate::descriptor::LocalFuture<'_, Result<Found>>
-                    })
-                    .collect();
-                let founds = match queue.run_together(tasks).await {
-                    Ok(mut founds) => {
-                        share_wave_time(&mut founds, now_ms() - started);
-                        founds
-                    }
-                    // Together past the budget: one by one, as they would
-                    // have run without the GPU.
-                    Err(Error::OverBudget { .. }) if wave.len() > 1 => {
-                        let mut founds = Vec::with_capacity(wave.len());
-                        for (k, _) in &wave {
-                            let (index, part) = parts[*k];
-                            let mut runner = Runner {
-                                observer,
-                                gpu: Some(gpu),
-                                queue: None,
-                                held: self.held.clone(),
-                            };
-                            founds.push(self.part(index, part, &mut runner).await?);
-                        }
-                        founds
-                    }
-                    Err(e) => return Err(e),
-                };
+        if let Some(device) = device {
+            for wave in self.waves(parts, originals, device.wave_grids()) {
+                let founds = self.device_wave(parts, &wave, observer, device).await?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
@@ -113,9 +71,8 @@ impl<'a> PartSearch<'a> {
                 let (index, part) = parts[k];
                 let mut runner = Runner {
                     observer,
-                    gpu,
-                    #[cfg(feature = "gpu")]
-                    queue: None,
+                    device: None,
+                    wave: None,
                     held: self.held.clone(),
                 };
                 searched[k] = Some(self.part(index, part, &mut runner).await?);
@@ -126,6 +83,55 @@ impl<'a> PartSearch<'a> {
             }
         }
         Ok(searched)
+    }
+
+    /// The parts of `wave` searched side by side on `device`, each layer of
+    /// all of them one submission; past the memory budget together, one by
+    /// one, as they would have run without the device.
+    async fn device_wave(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        wave: &[(usize, MemoryEstimate)],
+        observer: &RefCell<&mut dyn Observer>,
+        device: &dyn LayerDevice,
+    ) -> Result<Vec<Found>> {
+        let started = now_ms();
+        let queue = device.wave();
+        let tasks: Vec<LocalFuture<'_, Result<Found>>> = wave
+            .iter()
+            .map(|(k, held)| {
+                let (index, part) = parts[*k];
+                let mut runner = Runner {
+                    observer,
+                    device: Some(device),
+                    wave: Some(&*queue),
+                    held: held.clone(),
+                };
+                Box::pin(async move { self.part(index, part, &mut runner).await })
+                    as LocalFuture<'_, Result<Found>>
+            })
+            .collect();
+        match run_together(&*queue, tasks).await {
+            Ok(mut founds) => {
+                share_wave_time(&mut founds, now_ms() - started);
+                Ok(founds)
+            }
+            Err(Error::OverBudget { .. }) if wave.len() > 1 => {
+                let mut founds = Vec::with_capacity(wave.len());
+                for (k, _) in wave {
+                    let (index, part) = parts[*k];
+                    let mut runner = Runner {
+                        observer,
+                        device: Some(device),
+                        wave: None,
+                        held: self.held.clone(),
+                    };
+                    founds.push(self.part(index, part, &mut runner).await?);
+                }
+                Ok(founds)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The parts of `wave` searched side by side on the CPU's threads, each
@@ -152,9 +158,8 @@ impl<'a> PartSearch<'a> {
                 let own: RefCell<&mut dyn Observer> = RefCell::new(&mut collect);
                 let mut runner = Runner {
                     observer: &own,
-                    gpu: None,
-                    #[cfg(feature = "gpu")]
-                    queue: None,
+                    device: None,
+                    wave: None,
                     held: held.clone(),
                 };
                 finished(self.part(index, part, &mut runner))

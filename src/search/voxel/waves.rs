@@ -74,14 +74,6 @@ pub(super) fn plan_waves(
     waves
 }
 
-/// Parts in a wave at most. A submission's fixed cost (0.1-0.25 ms
-/// measured on an H100, whatever its kernels) is shared by a wave's parts,
-/// while each kernel costs its own 30-130 us to build and submit: at 16
-/// parts the shared part is already below a tenth of a layer's cost, and
-/// more parts would mostly add memory (each holds its grids).
-#[cfg(feature = "gpu")]
-pub(super) const WAVE_PARTS: usize = 16;
-
 /// Parts in a wave on the CPU at most: enough that the threads share them
 /// evenly whatever their sizes, few enough that a cancel is heard within a
 /// wave's time.
@@ -110,7 +102,6 @@ pub(super) fn share_cpu_wave_time(founds: &mut [Found], wall: f64) {
 /// time is its wall time less what each part spent alone voxelizing and
 /// grouping, and a layer's time the longest any part spent in it (they
 /// wait on the same submissions). Both go to the first part that has them.
-#[cfg(feature = "gpu")]
 pub(super) fn share_wave_time(founds: &mut [Found], wall: f64) {
     let alone: f64 = founds
         .iter()
