@@ -53,11 +53,48 @@ pub struct Survivor {
     pub anchors: Anchors,
 }
 
-/// Receives per-layer statistics as the search runs (progress bars, logs);
-/// returning `Break` cancels the search.
+/// How far a long step of the search has come: between layers, a search
+/// of many parts or many windows would otherwise be silent for minutes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct Progress {
+    /// What is being worked through: [`Progress::PARTS`],
+    /// [`Progress::WINDOWS`] or [`Progress::CANDIDATES`].
+    pub step: &'static str,
+    /// How many of them are done.
+    pub done: usize,
+    /// How many there are.
+    pub total: usize,
+}
+
+impl Progress {
+    /// The scene's parts that can hold a copy, each searched on its grid.
+    pub const PARTS: &'static str = "parts";
+    /// The windows of a part too large for one grid.
+    pub const WINDOWS: &'static str = "windows";
+    /// The mesh's vertices, for the curvature descriptor.
+    pub const CANDIDATES: &'static str = "candidates";
+
+    /// The share done, 0 to 1 (1 when there is nothing to do).
+    pub fn share(&self) -> f64 {
+        if self.total == 0 {
+            1.0
+        } else {
+            self.done.min(self.total) as f64 / self.total as f64
+        }
+    }
+}
+
+/// Receives per-layer statistics and progress as the search runs (progress
+/// bars, logs); returning `Break` from either cancels the search.
 pub trait Observer {
     /// Called after every layer.
     fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()>;
+
+    /// Called as a long step advances; ignored unless overridden.
+    fn on_progress(&mut self, _progress: &Progress) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
 }
 
 impl Observer for () {
@@ -218,6 +255,7 @@ pub fn run_cascade_in_chunks(
     let chunk = chunk.max(1);
     let mut survivors = Vec::new();
     let mut stats = Vec::new();
+    let mut done = 0;
     for round in candidates.chunks(chunk * ROUND_CHUNKS) {
         let began = now_ms();
         let pieces: Vec<&[u32]> = round.chunks(chunk).collect();
@@ -247,6 +285,15 @@ pub fn run_cascade_in_chunks(
             }
         }
         add_layer_stats(&mut stats, round_stats);
+        done += round.len();
+        let progress = Progress {
+            step: Progress::CANDIDATES,
+            done,
+            total: candidates.len(),
+        };
+        if observer.on_progress(&progress).is_break() {
+            return Err(Error::Cancelled);
+        }
     }
     Ok((survivors, stats))
 }

@@ -90,7 +90,7 @@ compile_error!(
     "the JavaScript binding reads options and writes reports with serde: build with --features serde"
 );
 
-pub use cascade::{LayerStats, Observer};
+pub use cascade::{LayerStats, Observer, Progress};
 pub use descriptor::ClutterPolicy;
 pub use error::{Error, Format, MemoryEstimate, Result};
 pub use exec::Threads;

@@ -3,8 +3,11 @@
 //! found there as on its whole grid, once each, whatever window they fall
 //! in.
 
+use std::ops::ControlFlow;
+
 use fast_reject::{
-    MatchOptions, MatchReport, Scene, SceneOptions, TemplateSource, TriMesh, search,
+    LayerStats, MatchOptions, MatchReport, Observer, Progress, Scene, SceneOptions, TemplateSource,
+    TriMesh, search,
 };
 
 /// A toothed rack, one closed mesh: `teeth` trapezoid teeth of pitch 1 on
@@ -133,5 +136,51 @@ fn the_teeth_of_a_rack_too_large_for_one_grid_are_found_window_by_window() {
     assert_eq!(a.len(), b.len(), "{a:?} / {b:?}");
     for (x, y) in a.iter().zip(&b) {
         assert!((x - y).abs() < 0.02, "{a:?} / {b:?}");
+    }
+}
+
+#[test]
+fn a_search_in_windows_reports_each_window_before_it_is_searched() {
+    let scene = Scene::new(
+        rack(TEETH),
+        &SceneOptions::DEFAULT.with_memory_budget(40 << 20),
+    )
+    .unwrap();
+    let template = TemplateSource::Selection {
+        center: [20.75, 0.4, 1.1],
+        radius: 0.6,
+    };
+    let mut seen = Recorder::default();
+    let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut seen).unwrap();
+    let windows: Vec<Progress> = seen
+        .0
+        .iter()
+        .copied()
+        .filter(|p| p.step == Progress::WINDOWS)
+        .collect();
+    let total = windows[0].total;
+    assert!(total > 1, "{windows:?}");
+    assert_eq!(windows[0].done, 0);
+    assert!(
+        windows
+            .windows(2)
+            .all(|w| w[0].done < w[1].done && w[1].total == total)
+    );
+    // Windows with nothing to anchor a copy are skipped, never searched.
+    assert!(report.grid.unwrap().windows <= total);
+}
+
+/// Every progress report, in order.
+#[derive(Default)]
+struct Recorder(Vec<Progress>);
+
+impl Observer for Recorder {
+    fn on_layer(&mut self, _: &LayerStats) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        self.0.push(*progress);
+        ControlFlow::Continue(())
     }
 }

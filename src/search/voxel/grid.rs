@@ -8,7 +8,7 @@ use super::prepare::PartSearch;
 use super::waves::Found;
 use super::windows::Window;
 use crate::budget::candidate_bytes;
-use crate::cascade::{LayerStats, Observer, Stage, Survivor, run_cascade};
+use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
 use crate::descriptor::{HarmonicsDescriptor, LayerBatch, VolumeDescriptor, all_anchors};
@@ -162,5 +162,9 @@ struct SharedObserver<'r, 'o>(&'r std::cell::RefCell<&'o mut dyn Observer>);
 impl Observer for SharedObserver<'_, '_> {
     fn on_layer(&mut self, stats: &LayerStats) -> std::ops::ControlFlow<()> {
         self.0.borrow_mut().on_layer(stats)
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> std::ops::ControlFlow<()> {
+        self.0.borrow_mut().on_progress(progress)
     }
 }

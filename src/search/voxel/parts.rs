@@ -9,7 +9,7 @@ use super::prepare::PartSearch;
 use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share_wave_time};
 use super::windows::{Window, part_windows};
 use crate::budget::voxel_bytes;
-use crate::cascade::{LayerStats, Observer, finished};
+use crate::cascade::{LayerStats, Observer, Progress, finished};
 use crate::clock::now_ms;
 use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
 use crate::error::{Error, MemoryEstimate, Result};
@@ -57,12 +57,19 @@ impl<'a> PartSearch<'a> {
         device: Option<&dyn LayerDevice>,
     ) -> Result<Vec<Option<Found>>> {
         let mut searched: Vec<Option<Found>> = parts.iter().map(|_| None).collect();
+        let mut progress = Progress {
+            step: Progress::PARTS,
+            done: 0,
+            total: originals.len(),
+        };
         if let Some(device) = device {
             for wave in self.waves(parts, originals, device.wave_grids()) {
                 let founds = self.device_wave(parts, &wave, observer, device).await?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
+                progress.done += wave.len();
+                report_progress(observer, &progress)?;
             }
             return Ok(searched);
         }
@@ -76,11 +83,13 @@ impl<'a> PartSearch<'a> {
                     held: self.held.clone(),
                 };
                 searched[k] = Some(self.part(index, part, &mut runner).await?);
-                continue;
+            } else {
+                for ((k, _), found) in wave.iter().zip(self.cpu_wave(parts, &wave, observer)?) {
+                    searched[*k] = Some(found);
+                }
             }
-            for ((k, _), found) in wave.iter().zip(self.cpu_wave(parts, &wave, observer)?) {
-                searched[*k] = Some(found);
-            }
+            progress.done += wave.len();
+            report_progress(observer, &progress)?;
         }
         Ok(searched)
     }
@@ -296,7 +305,13 @@ impl<'a> PartSearch<'a> {
         let mut held = runner.held.clone();
         held.add("a large part's mesh for its windows", windowed.bytes());
         let mut instances: Vec<Instance> = Vec::new();
-        for window in windows {
+        for (number, window) in windows.iter().enumerate() {
+            let progress = Progress {
+                step: Progress::WINDOWS,
+                done: number,
+                total: windows.len(),
+            };
+            report_progress(runner.observer, &progress)?;
             // No copy can be anchored here.
             if near.is_some_and(|n| !n.any_in(&window.core_bounds())) {
                 continue;
@@ -407,4 +422,12 @@ fn check_part_volume(
         resolution: lattice.resolution,
         advice: "weld the mesh so that a part's triangles share vertices, or search a region of the scene".into(),
     })
+}
+
+/// Tells `observer` how far the search has come; a `Break` cancels it.
+fn report_progress(observer: &RefCell<&mut dyn Observer>, progress: &Progress) -> Result<()> {
+    match observer.borrow_mut().on_progress(progress) {
+        std::ops::ControlFlow::Continue(()) => Ok(()),
+        std::ops::ControlFlow::Break(()) => Err(Error::Cancelled),
+    }
 }

@@ -1,0 +1,95 @@
+//! Progress between layers: a search of many parts, or of the curvature
+//! descriptor over many vertices, tells how far it has come, and a
+//! `Break` there cancels it like one from a layer.
+
+use std::ops::ControlFlow;
+
+use fast_reject::math::Vec3;
+use fast_reject::mesh::shapes::uv_sphere;
+use fast_reject::{
+    DescriptorKind, Error, LayerStats, MatchOptions, Observer, Progress, Scene, SceneOptions,
+    TemplateSource, load, search,
+};
+
+/// Every progress report, in order; breaks at the `stop_at`-th if given.
+#[derive(Default)]
+struct Recorder {
+    seen: Vec<Progress>,
+    stop_at: Option<usize>,
+}
+
+impl Observer for Recorder {
+    fn on_layer(&mut self, _: &LayerStats) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        self.seen.push(*progress);
+        match self.stop_at {
+            Some(n) if self.seen.len() >= n => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        }
+    }
+}
+
+fn demo() -> (Scene, TemplateSource) {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let read = |name: &str| load(&std::fs::read(format!("{dir}/{name}")).unwrap(), None).unwrap();
+    let scene = Scene::new(read("scene.glb"), &SceneOptions::DEFAULT).unwrap();
+    (scene, TemplateSource::Model(read("template.glb")))
+}
+
+/// `seen` counts up to its total, one step, never backwards.
+fn counts_up_to_the_end(seen: &[Progress], step: &str) {
+    let of_step: Vec<&Progress> = seen.iter().filter(|p| p.step == step).collect();
+    assert!(!of_step.is_empty(), "no {step} in {seen:?}");
+    let total = of_step[0].total;
+    assert!(
+        of_step
+            .windows(2)
+            .all(|w| w[0].done < w[1].done && w[1].total == total),
+        "{of_step:?}"
+    );
+    let last = of_step[of_step.len() - 1];
+    assert_eq!((last.done, last.share()), (total, 1.0), "{of_step:?}");
+}
+
+#[test]
+fn a_search_of_many_parts_counts_them_to_the_end() {
+    let (scene, template) = demo();
+    let mut recorder = Recorder::default();
+    let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut recorder).unwrap();
+    assert!(!report.instances.is_empty());
+    counts_up_to_the_end(&recorder.seen, Progress::PARTS);
+    assert!(recorder.seen[0].total > 1, "{:?}", recorder.seen);
+}
+
+#[test]
+fn the_curvature_descriptor_counts_its_vertices_to_the_end() {
+    let scene = Scene::new(
+        uv_sphere(Vec3::ZERO, 1.0, 32, 64),
+        &SceneOptions::DEFAULT.with_resolution(64),
+    )
+    .unwrap();
+    let selection = TemplateSource::Selection {
+        center: [1.0, 0.0, 0.0],
+        radius: 0.5,
+    };
+    let mut options = MatchOptions::DEFAULT;
+    options.descriptor = DescriptorKind::Curvature;
+    let mut recorder = Recorder::default();
+    search(&scene, &selection, &options, &mut recorder).unwrap();
+    counts_up_to_the_end(&recorder.seen, Progress::CANDIDATES);
+}
+
+#[test]
+fn a_break_from_progress_cancels_the_search() {
+    let (scene, template) = demo();
+    let mut recorder = Recorder {
+        stop_at: Some(1),
+        ..Recorder::default()
+    };
+    let e = search(&scene, &template, &MatchOptions::DEFAULT, &mut recorder).unwrap_err();
+    assert!(matches!(e, Error::Cancelled), "{e:?}");
+    assert_eq!(recorder.seen.len(), 1);
+}
