@@ -379,3 +379,41 @@ fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     assert_eq!(positions(&cpu), positions(&gpu));
     assert_finds_the_demo_mugs(&gpu, 0.2);
 }
+
+#[test]
+fn progress_goes_to_standard_error_when_asked_and_only_then() {
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
+    let args = ["match", &scene, "--template", &template, "--json"];
+    // Standard error is a pipe here, not a terminal: silent by default.
+    let quiet = cli(&args);
+    assert!(quiet.status.success(), "{}", stderr(&quiet));
+    assert_eq!(stderr(&quiet), "");
+    let told = cli(&[&args[..], &["--progress"]].concat());
+    assert!(told.status.success(), "{}", stderr(&told));
+    let log = stderr(&told);
+    for phase in [
+        "loading the scene",
+        "loading the template",
+        "preparing the scene",
+        "searching",
+    ] {
+        assert!(log.contains(phase), "no '{phase}' in:\n{log}");
+    }
+    // Plain lines for a log: no carriage return, no escape sequence.
+    assert!(!log.contains(['\r', '\x1b']), "{log:?}");
+    // The report itself is the same.
+    let report = |o: &Output| {
+        let mut v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v.as_object_mut().unwrap().remove("timings_ms");
+        v["stages"]
+            .as_array_mut()
+            .unwrap()
+            .iter_mut()
+            .for_each(|s| {
+                s.as_object_mut().unwrap().remove("ms");
+            });
+        v
+    };
+    assert_eq!(report(&quiet), report(&told));
+}

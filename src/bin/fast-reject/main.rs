@@ -1,6 +1,7 @@
 //! The `fast-reject` command: search a scene file for a template.
 
 mod folder_resolver;
+mod progress;
 mod table;
 
 use std::path::{Path, PathBuf};
@@ -17,6 +18,7 @@ use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search, search_on_gpu};
 use fast_reject::template::TemplateSource;
 use folder_resolver::FolderResolver;
+use progress::ProgressLine;
 
 /// Finds every occurrence of a template shape in a 3D scene (Fast Reject,
 /// Attene et al. 2010).
@@ -72,6 +74,10 @@ struct MatchArgs {
     /// Print the result as one JSON object.
     #[arg(long)]
     json: bool,
+    /// Report progress on standard error even when it is not a terminal
+    /// (on a terminal it is always shown), a line a second.
+    #[arg(long)]
+    progress: bool,
 }
 
 fn main() -> ExitCode {
@@ -149,20 +155,27 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     scene_options.memory_budget = memory_budget(args.memory_budget)?;
     scene_options.backend = backend;
     let gpu = gpu_for(args.backend)?;
-    let job = || -> Result<MatchReport, String> {
+    let mut progress = ProgressLine::new(args.progress);
+    let mut job = || -> Result<MatchReport, String> {
         let start = std::time::Instant::now();
+        progress.phase("loading the scene");
         let scene_mesh = load_file(&args.scene)?;
         let source = match (&args.template, &args.select) {
-            (Some(path), _) => TemplateSource::Model(load_file(path)?),
+            (Some(path), _) => {
+                progress.phase("loading the template");
+                TemplateSource::Model(load_file(path)?)
+            }
             (None, Some(s)) => parse_select(s)?,
             (None, None) => unreachable!("clap requires one of them"),
         };
+        progress.phase("preparing the scene");
         let scene = Scene::new(scene_mesh, &scene_options)
             .map_err(|e| format!("scene '{}': {}", shown(&args.scene), described(&e)))?;
         let load = start.elapsed().as_secs_f64() * 1e3;
+        progress.phase("searching");
         let mut report = match &gpu {
-            Some(gpu) => search_on_gpu(&scene, &source, &options, &mut (), gpu),
-            None => search(&scene, &source, &options, &mut ()),
+            Some(gpu) => search_on_gpu(&scene, &source, &options, &mut progress, gpu),
+            None => search(&scene, &source, &options, &mut progress),
         }
         .map_err(|e| described(&e))?;
         report.timings.load = load;
@@ -176,6 +189,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
             .install(job)?,
         _ => job()?,
     };
+    progress.finish();
     print_report(&report, args.json, descriptor)
 }
 
