@@ -158,6 +158,22 @@ export class CancelledError extends Error {
 /** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel: the search then throws (rejects with) a `CancelledError`. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
+/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices). */
+export interface SearchProgress {
+  step: 'parts' | 'windows' | 'candidates';
+  done: number;
+  total: number;
+}
+
+/** Called as a search works through its parts; return `false` (or throw) to cancel, as with `LayerCallback`. */
+export type ProgressCallback = (progress: SearchProgress) => boolean | void;
+
+/** The callbacks of a search: per layer, and per part done. */
+export interface SearchCallbacks {
+  onLayer?: LayerCallback;
+  onProgress?: ProgressCallback;
+}
+
 declare abstract class Handle {
   /** Releases the wasm memory now (or when a search using the handle, a pending `matchGpu`, ends); the handle cannot be used afterwards. */
   free(): void;
@@ -173,14 +189,19 @@ export class Scene extends Handle {
   readonly parts: number;
   readonly triangles: number;
   /** Finds every occurrence of `template`; throws a `CancelledError` when cancelled, an `Error` on bad options. */
-  match(template: Template, options?: MatchOptions, onLayer?: LayerCallback): MatchReport;
+  match(template: Template, options?: MatchOptions, observe?: LayerCallback | SearchCallbacks): MatchReport;
   /**
    * Like `match`, with the volume and harmonics layers on WebGPU where `navigator.gpu` gives a hardware adapter
    * (a fallback, software one only with `allowSoftware`): the same instances. The report's `gpu` names the adapter,
    * or is null when the CPU ran (no adapter, as in Node); a device that fails midway hands its layers back to the
    * CPU and says why in `gpu.fallback`. Rejects with a `CancelledError` when cancelled, an `Error` on bad options.
    */
-  matchGpu(template: Template, options?: MatchOptions, onLayer?: LayerCallback, gpu?: GpuChoice): Promise<MatchReport>;
+  matchGpu(
+    template: Template,
+    options?: MatchOptions,
+    observe?: LayerCallback | SearchCallbacks,
+    gpu?: GpuChoice,
+  ): Promise<MatchReport>;
 }
 
 export class Template extends Handle {

@@ -270,16 +270,21 @@ export class Scene extends Handle {
     return this.inner.triangles;
   }
   /**
-   * Finds every occurrence of `template`. `onLayer(stats)` runs after each
-   * cascade layer; returning `false` or throwing stops the search with a
+   * Finds every occurrence of `template`. `observe` is `onLayer(stats)`,
+   * run after each cascade layer, or `{ onLayer, onProgress }`, where
+   * `onProgress({ step, done, total })` runs as the scene's parts (a large
+   * part's windows, the curvature search's vertices) are worked through.
+   * Returning `false` from either or throwing stops the search with a
    * `CancelledError` (a throw is its `cause`).
    */
-  match(template, options = {}, onLayer) {
-    checkSearch(template, onLayer, 'match');
+  match(template, options = {}, observe) {
+    const callbacks = checkSearch(template, observe, 'match');
     const settings = plainOptions(options, 'match');
-    const progress = new Progress(onLayer);
+    const progress = new Progress(callbacks);
     try {
-      return searching(this, template, (scene, inner) => call(() => scene.match(inner, settings, progress.callback)));
+      return searching(this, template, (scene, inner) =>
+        call(() => scene.match(inner, settings, progress.onLayer, progress.onProgress)),
+      );
     } catch (error) {
       throw progress.explain(error);
     }
@@ -292,13 +297,15 @@ export class Scene extends Handle {
    * Node). A device that fails midway hands its layers back to the CPU and
    * says why in `gpu.fallback`.
    */
-  async matchGpu(template, options = {}, onLayer, { allowSoftware = false } = {}) {
-    checkSearch(template, onLayer, 'matchGpu');
+  async matchGpu(template, options = {}, observe, { allowSoftware = false } = {}) {
+    const callbacks = checkSearch(template, observe, 'matchGpu');
     const settings = plainOptions(options, 'match');
-    const progress = new Progress(onLayer);
+    const progress = new Progress(callbacks);
     try {
       return await searching(this, template, (scene, inner) =>
-        callAsync(() => scene.matchGpu(inner, settings, progress.callback, Boolean(allowSoftware))),
+        callAsync(() =>
+          scene.matchGpu(inner, settings, progress.onLayer, progress.onProgress, Boolean(allowSoftware)),
+        ),
       );
     } catch (error) {
       throw progress.explain(error);
@@ -306,15 +313,30 @@ export class Scene extends Handle {
   }
 }
 
-function checkSearch(template, onLayer, what) {
+/** The search's callbacks, `{ onLayer, onProgress }`, from `observe`: a function (onLayer) or that object. */
+function checkSearch(template, observe, what) {
   if (!(template instanceof Template)) throw new TypeError(`fast-reject: ${what} needs a Template`);
-  if (onLayer !== undefined && typeof onLayer !== 'function') {
-    throw new TypeError('fast-reject: onLayer must be a function');
+  const callbacks =
+    typeof observe === 'function'
+      ? { onLayer: observe }
+      : observe === undefined || observe === null
+        ? {}
+        : typeof observe === 'object'
+          ? { onLayer: observe.onLayer, onProgress: observe.onProgress }
+          : null;
+  if (callbacks === null) {
+    throw new TypeError(`fast-reject: ${what}'s third argument must be a function (onLayer) or { onLayer, onProgress }`);
   }
+  for (const name of ['onLayer', 'onProgress']) {
+    if (callbacks[name] !== undefined && typeof callbacks[name] !== 'function') {
+      throw new TypeError(`fast-reject: ${name} must be a function`);
+    }
+  }
+  return callbacks;
 }
 
 /**
- * The progress callback as the module calls it: it remembers whether the
+ * The callbacks as the module calls them: they remember whether the
  * caller cancelled and what the caller's callback threw, so that the
  * module's error becomes a `CancelledError` that keeps the thrown value as
  * its `cause` instead of a flattened message.
@@ -323,19 +345,24 @@ class Progress {
   #cancelled = false;
   #threw = false;
   #thrown;
-  constructor(onLayer) {
-    this.callback =
-      onLayer &&
-      ((stats) => {
+  constructor({ onLayer, onProgress }) {
+    this.onLayer = this.#guarded(onLayer);
+    this.onProgress = this.#guarded(onProgress);
+  }
+  #guarded(callback) {
+    return (
+      callback &&
+      ((value) => {
         try {
-          if (onLayer(stats) !== false) return true;
+          if (callback(value) !== false) return true;
         } catch (error) {
           this.#threw = true;
           this.#thrown = error;
         }
         this.#cancelled = true;
         return false;
-      });
+      })
+    );
   }
   /** The error to throw for `error`, which the module threw. */
   explain(error) {

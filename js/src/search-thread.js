@@ -8,7 +8,7 @@
 //      {type: 'check', id, template: {bytes, format} | {center, radius}}
 //      {type: 'match', id, template, options}
 // Out: {type: 'ready', id, info} | {type: 'loaded', id, scene} | {type: 'checked', id}
-//      {type: 'layer', id, stats} | {type: 'result', id, report}
+//      {type: 'layer', id, stats} | {type: 'progress', id, progress} | {type: 'result', id, report}
 //      {type: 'error', id, error: {name, message}}
 import { Scene, Template, init, optionDefaults } from './index.js';
 
@@ -52,9 +52,12 @@ async function search({ id, template: spec, options }, send) {
   if (!scene) throw new Error('fast-reject: load a scene (loadScene) before searching it');
   const template = makeTemplate(spec);
   try {
-    const onLayer = (stats) => send({ type: 'layer', id, stats });
-    if (backend === 'cpu') return scene.match(template, options, onLayer);
-    return await scene.matchGpu(template, options, onLayer, { allowSoftware: backend === 'gpu' });
+    const observe = {
+      onLayer: (stats) => send({ type: 'layer', id, stats }),
+      onProgress: (progress) => send({ type: 'progress', id, progress }),
+    };
+    if (backend === 'cpu') return scene.match(template, options, observe);
+    return await scene.matchGpu(template, options, observe, { allowSoftware: backend === 'gpu' });
   } finally {
     template.free();
   }

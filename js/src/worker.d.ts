@@ -7,6 +7,7 @@ import type {
   MeshBytes,
   MeshFormat,
   OptionDefaults,
+  ProgressCallback,
   SceneOptions,
 } from './index.js';
 
@@ -44,13 +45,15 @@ export type TemplateSource =
 export interface MatchControl {
   /** After every cascade layer; return `false` (or throw) to cancel. */
   onLayer?: LayerCallback;
+  /** As the scene's parts are searched, `done` of `total`; return `false` (or throw) to cancel. */
+  onProgress?: ProgressCallback;
   /** Cancels the search when aborted (its reason is the `CancelledError`'s cause). */
   signal?: AbortSignal;
 }
 
 /**
  * The search in a worker of its own (a Web Worker in the browser, worker_threads in Node): async, with progress per
- * layer and a cancel that stops the work at once. Requests run one at a time in order; the loaded scene is kept.
+ * part and per layer, and a cancel that stops the work at once. Requests run one at a time in order; the loaded scene is kept.
  */
 export class SearchWorker {
   constructor(options?: SearchWorkerOptions);

@@ -102,11 +102,11 @@ export class SearchWorker {
    * A caller's request: pending (so that a cancel rejects it) from the
    * moment it is made, and posted once the worker is up and has its scene.
    */
-  #request(message, onLayer) {
+  #request(message, callbacks = {}) {
     if (this.#closed) return Promise.reject(new Error('fast-reject: this SearchWorker was terminated'));
     if (!this.#thread) this.#start();
     const thread = this.#thread;
-    const { id, settled } = this.#register(onLayer);
+    const { id, settled } = this.#register(callbacks);
     this.#ready.then(
       () => {
         if (this.#thread === thread && this.#pending.has(id)) this.#send(thread, { ...message, id });
@@ -141,10 +141,10 @@ export class SearchWorker {
     );
   }
 
-  #register(onLayer) {
+  #register({ onLayer, onProgress } = {}) {
     const id = this.#nextId++;
     const settled = new Promise((resolve, reject) => {
-      this.#pending.set(id, { resolve, reject, onLayer });
+      this.#pending.set(id, { resolve, reject, onLayer, onProgress });
     });
     this.#thread.hold(true);
     return { id, settled };
@@ -153,10 +153,13 @@ export class SearchWorker {
   #receive(message) {
     const job = this.#pending.get(message.id);
     if (!job) return;
-    if (message.type === 'layer') {
+    if (message.type === 'layer' || message.type === 'progress') {
       let goOn;
       try {
-        goOn = job.onLayer?.(message.stats) !== false;
+        goOn =
+          message.type === 'layer'
+            ? job.onLayer?.(message.stats) !== false
+            : job.onProgress?.(message.progress) !== false;
       } catch (error) {
         this.#cancel(
           new CancelledError(
@@ -247,15 +250,18 @@ export class SearchWorker {
   /**
    * Searches the loaded scene for `template`: `{bytes, format?}` (a model)
    * or `{center, radius}` (the part of the scene inside a sphere).
-   * `onLayer(stats)` after every cascade layer (returning `false` or
-   * throwing cancels); `signal` an AbortSignal that cancels. A cancelled
-   * search rejects with a `CancelledError`.
+   * `onLayer(stats)` after every cascade layer, `onProgress({ step,
+   * done, total })` as the scene's parts are searched (returning `false`
+   * from either or throwing cancels); `signal` an AbortSignal that cancels.
+   * A cancelled search rejects with a `CancelledError`.
    */
-  match(template, options = {}, { onLayer, signal } = {}) {
+  match(template, options = {}, { onLayer, onProgress, signal } = {}) {
     let spec;
     try {
-      if (onLayer !== undefined && typeof onLayer !== 'function') {
-        throw new TypeError('fast-reject: onLayer must be a function');
+      for (const [name, callback] of [['onLayer', onLayer], ['onProgress', onProgress]]) {
+        if (callback !== undefined && typeof callback !== 'function') {
+          throw new TypeError(`fast-reject: ${name} must be a function`);
+        }
       }
       spec = templateSpec(template);
       options = plainOptions(options, 'match');
@@ -265,7 +271,7 @@ export class SearchWorker {
     }
     const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
     signal?.addEventListener('abort', abort, { once: true });
-    return this.#request({ type: 'match', template: spec, options }, onLayer)
+    return this.#request({ type: 'match', template: spec, options }, { onLayer, onProgress })
       .then((reply) => reply.report)
       .finally(() => signal?.removeEventListener('abort', abort));
   }

@@ -73,6 +73,23 @@ test('bad input is an Error and the module stays usable', async () => {
   }
   assert.throws(() => scene.match(template, {}, () => false), /cancelled/);
   assert.throws(() => scene.match(template, {}, () => { throw new Error('stop now'); }), /stop now/);
+  assert.throws(() => scene.match(template, {}, { onProgress: () => false }), /cancelled/);
+  assert.throws(() => scene.match(template, {}, { onProgress: 3 }), /onProgress must be a function/);
+  assert.throws(() => scene.match(template, {}, 'layers'), TypeError);
+  // Progress counts the parts searched, to the end; layers still come.
+  const counts = [];
+  let layerCalls = 0;
+  const counted = scene.match(template, {}, {
+    onLayer: () => { layerCalls += 1; },
+    onProgress: (progress) => { counts.push(progress); },
+  });
+  assert.ok(layerCalls >= counted.stages.length);
+  assert.ok(counts.length >= 1);
+  for (const [k, c] of counts.entries()) {
+    assert.equal(c.step, 'parts');
+    assert.ok(c.done >= (counts[k - 1]?.done ?? 1) && c.done <= c.total && c.total <= scene.parts, JSON.stringify(c));
+  }
+  assert.equal(counts.at(-1).done, counts.at(-1).total);
   // The same handles still give a full search afterwards.
   const layers = [];
   const report = scene.match(template, {}, (stats) => { layers.push(stats); });
@@ -114,6 +131,7 @@ test('matchGpu without an adapter (Node) searches on the CPU and finds what matc
   assert.ok(layers.length >= report.stages.length);
   await assert.rejects(scene.matchGpu(template, { resolutoin: 64 }), /resolutoin/);
   await assert.rejects(scene.matchGpu(template, {}, () => false), /cancelled/);
+  await assert.rejects(scene.matchGpu(template, {}, { onProgress: () => false }), /cancelled/);
   await assert.rejects(scene.matchGpu(null), TypeError);
   // The module is still usable.
   assert.equal(scene.match(template).instances.length, cpu.instances.length);

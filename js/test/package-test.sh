@@ -59,7 +59,7 @@ timeout 120 node node-example.mjs
 
 echo "-- tsc checks a program against the package's types"
 cat > src/main.ts <<'TS'
-import { init, Scene, Template, CancelledError, type MatchReport, type LayerStats, type MatchOptions, type SceneOptions } from 'fast-reject';
+import { init, Scene, Template, CancelledError, type MatchReport, type LayerStats, type MatchOptions, type SceneOptions, type SearchProgress } from 'fast-reject';
 import { SearchWorker, type SceneInfo, type WorkerInfo } from 'fast-reject/worker';
 
 export async function inWorker(sceneBytes: ArrayBuffer, signal: AbortSignal): Promise<number> {
@@ -70,6 +70,7 @@ export async function inWorker(sceneBytes: ArrayBuffer, signal: AbortSignal): Pr
     const report = await search.match({ center: [0, 0, 0], radius: loaded.voxelSize * 40 }, { layers: 4 }, {
       signal,
       onLayer: (layer) => layer.survivors > 0,
+      onProgress: ({ step, done, total }) => step !== 'parts' || done <= total,
     });
     return report.instances.length;
   } catch (error) {
@@ -96,6 +97,10 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   const candidates: number = report.grid?.skin_voxels ?? report.surface?.vertices ?? 0;
   const agreement: number | null = report.instances[0]?.score ?? null;
   console.log(first, report.timings_ms.match, candidates, agreement);
+  scene.match(template, {}, { onProgress: (p: SearchProgress) => p.done <= p.total });
+  // @ts-expect-error: a step is 'parts', 'windows' or 'candidates'
+  const wrongStep: SearchProgress = { step: 'layers', done: 0, total: 1 };
+  void wrongStep;
   const onGpu: MatchReport = await scene.matchGpu(template, {}, undefined, { allowSoftware: false });
   const adapter: string | null = onGpu.gpu?.adapter ?? null;
   console.log(adapter, onGpu.gpu?.fallback);

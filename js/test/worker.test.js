@@ -1,5 +1,5 @@
 // `fast-reject/worker` in Node (worker_threads): the same instances as the
-// API on the calling thread, progress per layer, every way of cancelling
+// API on the calling thread, progress per part and per layer, every way of cancelling
 // rejecting with a CancelledError at once, and a worker that keeps its scene
 // through cancels and broken files.
 import assert from 'node:assert/strict';
@@ -34,7 +34,7 @@ test('one class for cancels, whichever entry point threw it', () => {
   assert.equal(WorkerCancelledError, CancelledError);
 });
 
-test('a search in the worker finds what the calling thread finds, with progress per layer', async () => {
+test('a search in the worker finds what the calling thread finds, with progress per part and per layer', async () => {
   const reference = await onThisThread();
   const search = new SearchWorker();
   try {
@@ -45,7 +45,14 @@ test('a search in the worker finds what the calling thread finds, with progress 
     assert.equal(scene.parts, 11);
     assert.ok(scene.triangles > 0 && scene.resolution === 512);
     const layers = [];
-    const report = await search.match({ bytes: templateBytes }, {}, { onLayer: (stats) => void layers.push(stats) });
+    const counts = [];
+    const report = await search.match({ bytes: templateBytes }, {}, {
+      onLayer: (stats) => void layers.push(stats),
+      onProgress: (progress) => void counts.push(progress),
+    });
+    // Parts done of those searched, to the end.
+    assert.ok(counts.length >= 1 && counts.every((c) => c.step === 'parts' && c.done <= c.total && c.total <= 11));
+    assert.equal(counts.at(-1).done, counts.at(-1).total);
     assert.ok(reference.instances.length > 0);
     assert.deepEqual(positions(report.instances), positions(reference.instances));
     assert.ok(report.instancePositions instanceof Float64Array);
@@ -70,6 +77,7 @@ test('every way of cancelling rejects with a CancelledError, and the scene stays
     await search.loadScene(sceneBytes);
     // false from the callback.
     await assert.rejects(search.match({ bytes: templateBytes }, {}, { onLayer: () => false }), CancelledError);
+    await assert.rejects(search.match({ bytes: templateBytes }, {}, { onProgress: () => false }), CancelledError);
     // A throw: kept as the cause, not flattened into the message only.
     const mine = new RangeError('stop here');
     await assert.rejects(
@@ -131,6 +139,7 @@ test('bad input rejects with a readable Error and keeps the loaded scene', async
     await assert.rejects(search.match({ bytes: templateBytes }, { resolutoin: 64 }), /resolutoin/);
     await assert.rejects(search.match({ bytes: 'scene.glb' }), TypeError);
     await assert.rejects(search.match({ bytes: templateBytes }, {}, { onLayer: 3 }), TypeError);
+    await assert.rejects(search.match({ bytes: templateBytes }, {}, { onProgress: 3 }), /onProgress must be a function/);
     assert.throws(() => new SearchWorker({ backend: 'webgpu' }), /backend/);
     // Still the zoo: the broken file replaced nothing.
     assert.equal((await search.match({ bytes: templateBytes })).instances.length, 4);

@@ -21,7 +21,7 @@ use std::sync::{Mutex, Once};
 use js_sys::{Float64Array, Function, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
-use crate::cascade::LayerStats;
+use crate::cascade::{LayerStats, Progress};
 use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
 use crate::mesh::TriMesh;
@@ -249,19 +249,23 @@ impl SceneHandle {
 
     /// Searches the scene for `template`. `options` is a plain object (see
     /// `options::MatchSettings`); `on_layer` is called after every cascade
-    /// layer with its statistics, and returning `false` or throwing cancels
-    /// the search. A `resolution` other than the scene's voxelizes it again
-    /// (and keeps that grid for the next calls).
+    /// layer with its statistics, `on_progress` as the parts (windows,
+    /// vertices) are worked through with `{step, done, total}`, and
+    /// returning `false` from either or throwing cancels the search. A
+    /// `resolution` other than the scene's voxelizes it again (and keeps
+    /// that grid for the next calls).
     #[wasm_bindgen(js_name = "match")]
     pub fn run_match(
         &mut self,
         template: &TemplateHandle,
         options: JsValue,
         on_layer: Option<Function>,
+        on_progress: Option<Function>,
     ) -> Result<JsValue, JsError> {
         let settings = self.settings_for_search(&options)?;
-        let mut progress = Progress {
-            callback: on_layer,
+        let mut progress = JsObserver {
+            on_layer,
+            on_progress,
             failure: None,
         };
         let result = search(
@@ -286,11 +290,13 @@ impl SceneHandle {
         template: &TemplateHandle,
         options: JsValue,
         on_layer: Option<Function>,
+        on_progress: Option<Function>,
         allow_software: bool,
     ) -> Result<JsValue, JsError> {
         let settings = self.settings_for_search(&options)?;
-        let mut progress = Progress {
-            callback: on_layer,
+        let mut progress = JsObserver {
+            on_layer,
+            on_progress,
             failure: None,
         };
         let gpu = gpu::shared(allow_software).await;
@@ -348,7 +354,7 @@ impl SceneHandle {
     fn finish_search(
         &self,
         result: crate::Result<crate::MatchReport>,
-        progress: Progress,
+        progress: JsObserver,
         template: &TemplateHandle,
     ) -> Result<JsValue, JsError> {
         let mut report = match result {
@@ -445,25 +451,45 @@ impl TemplateHandle {
     }
 }
 
-/// Forwards layer statistics to a JS callback; `false` or a throw cancels.
-struct Progress {
-    callback: Option<Function>,
+/// Forwards layer statistics and progress to JS callbacks; `false` or a
+/// throw from either cancels.
+struct JsObserver {
+    on_layer: Option<Function>,
+    on_progress: Option<Function>,
     failure: Option<String>,
 }
 
-impl crate::cascade::Observer for Progress {
+impl crate::cascade::Observer for JsObserver {
     fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()> {
-        let Some(callback) = &self.callback else {
-            return ControlFlow::Continue(());
-        };
-        match callback.call1(&JsValue::NULL, &layer_to_js(stats)) {
-            Ok(answer) if answer == JsValue::FALSE => ControlFlow::Break(()),
-            Ok(_) => ControlFlow::Continue(()),
-            Err(thrown) => {
-                // The caller's text: escaped like the core's quotes.
-                self.failure = Some(FileText::new(&describe_js(&thrown)).to_string());
-                ControlFlow::Break(())
-            }
+        tell(&mut self.failure, self.on_layer.as_ref(), || {
+            layer_to_js(stats)
+        })
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        tell(&mut self.failure, self.on_progress.as_ref(), || {
+            progress_to_js(progress)
+        })
+    }
+}
+
+/// Calls `callback` with `value`: a `Break` when it answers `false` or
+/// throws, the thrown text kept in `failure` (escaped like the core's
+/// quotes).
+fn tell(
+    failure: &mut Option<String>,
+    callback: Option<&Function>,
+    value: impl FnOnce() -> JsValue,
+) -> ControlFlow<()> {
+    let Some(callback) = callback else {
+        return ControlFlow::Continue(());
+    };
+    match callback.call1(&JsValue::NULL, &value()) {
+        Ok(answer) if answer == JsValue::FALSE => ControlFlow::Break(()),
+        Ok(_) => ControlFlow::Continue(()),
+        Err(thrown) => {
+            *failure = Some(FileText::new(&describe_js(&thrown)).to_string());
+            ControlFlow::Break(())
         }
     }
 }
@@ -494,6 +520,16 @@ fn layer_to_js(stats: &LayerStats) -> JsValue {
     );
     set(&object, "survivors", &JsValue::from(stats.survivors as f64));
     set(&object, "ms", &JsValue::from(stats.ms));
+    object.into()
+}
+
+/// How far the search has come, as a plain object: `step` ("parts",
+/// "windows" or "candidates"), `done` and `total`.
+fn progress_to_js(progress: &Progress) -> JsValue {
+    let object = Object::new();
+    set(&object, "step", &JsValue::from_str(progress.step));
+    set(&object, "done", &JsValue::from(progress.done as f64));
+    set(&object, "total", &JsValue::from(progress.total as f64));
     object.into()
 }
 

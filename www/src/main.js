@@ -19,6 +19,8 @@ const state = {
   generation: 0,
   running: false,
   report: null,
+  /** The running or last search's progress: {step, done, total}, or null. */
+  progress: null,
   build: null,
   /** Whether the option fields were set from the core's defaults. */
   defaultsApplied: false,
@@ -469,18 +471,35 @@ async function runSearch() {
   const ticker = setInterval(() => {
     if (generation === state.generation) showStep(step);
   }, 250);
+  // With several parts (windows, vertex rounds) the bar follows them, and
+  // the time left is read from their pace; with one, it follows the layers.
+  const firstSeen = new Map();
+  state.progress = null;
   try {
     const onLayer = (stats) => {
       if (generation !== state.generation) return;
       layers.push(stats);
+      appendLayerRow(stats);
+      if (firstSeen.size > 0) return;
       $('progress-bar').value = Math.min(layers.length / expectedLayers, 1);
       showStep(
         `${stats.descriptor} layer ${stats.layer} of 6 (r = ${formatLength(stats.radius)}): ` +
           `${stats.survivors.toLocaleString()} of ${stats.candidates.toLocaleString()} candidates survive`,
       );
-      appendLayerRow(stats);
     };
-    const report = await matcher.match(template, options, { onLayer });
+    const onProgress = ({ step: what, done, total }) => {
+      if (generation !== state.generation) return;
+      state.progress = { step: what, done, total };
+      if (total < 2) return;
+      const now = performance.now();
+      if (!firstSeen.has(what)) firstSeen.set(what, { done, at: now });
+      const first = firstSeen.get(what);
+      $('progress-bar').value = Math.min(done / total, 1);
+      const pace = done > first.done ? (now - first.at) / (done - first.done) : null;
+      const left = pace && done < total ? `, about ${formatSeconds((pace * (total - done)) / 1000)} left` : '';
+      showStep(`Searched ${done.toLocaleString()} of ${total.toLocaleString()} ${PROGRESS_WORDS[what] ?? what}${left}`);
+    };
+    const report = await matcher.match(template, options, { onLayer, onProgress });
     if (generation !== state.generation) return;
     state.report = report;
     $('progress-bar').value = 1;
@@ -513,6 +532,14 @@ async function runSearch() {
       $('cancel-button').disabled = true;
     }
   }
+}
+
+/** What a progress step counts, in the viewer's words. */
+const PROGRESS_WORDS = { parts: 'parts', windows: 'windows of a large part', candidates: 'vertices' };
+
+/** A duration for "about … left": whole seconds, minutes past two. */
+function formatSeconds(seconds) {
+  return seconds < 120 ? `${Math.max(1, Math.round(seconds))} s` : `${Math.round(seconds / 60)} min`;
 }
 
 function cancelSearch() {
@@ -732,6 +759,10 @@ globalThis.viewer = {
   },
   get report() {
     return state.report;
+  },
+  /** The last search's progress as last reported: `{step, done, total}`, or null. */
+  get progress() {
+    return state.progress;
   },
   get selection() {
     return state.selection;

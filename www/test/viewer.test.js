@@ -161,6 +161,9 @@ for (const isolation of [true, false]) {
       await page.click('#search-button');
       await waitForStatus(page, 'done');
       const report = await page.evaluate(() => globalThis.viewer.report);
+      // The parts that can hold a copy were counted to the end.
+      const progress = await page.evaluate(() => globalThis.viewer.progress);
+      assert.ok(progress?.step === 'parts' && progress.total >= 1 && progress.done === progress.total, JSON.stringify(progress));
       // Every bunny holds one match, and nothing else does (models have radius 1).
       for (const [j, centre] of bunnies.entries()) {
         assert.ok(
