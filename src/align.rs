@@ -15,7 +15,7 @@
 //! template found upside down or on its side is turned back, a symmetric
 //! one keeps the first fit.
 //!
-//! Then the meshes judge the occurrence ([`surface_agreement`]): the share
+//! Then the meshes judge the occurrence ([`surface_fit`]): the share
 //! of the template's surface within a few per cent of its radius of the
 //! scene's, at the exact pose.
 
@@ -91,6 +91,15 @@ impl Rigid {
         Rigid {
             rotation: self.rotation * other.rotation,
             translation: self.rotation * other.translation + self.translation,
+        }
+    }
+
+    /// The transform back: `inverse().apply(apply(p)) == p`.
+    pub fn inverse(&self) -> Rigid {
+        let rotation = self.rotation.transpose();
+        Rigid {
+            rotation,
+            translation: -(rotation * self.translation),
         }
     }
 
@@ -176,6 +185,11 @@ impl SurfaceSamples {
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[Vec3] {
+        &self.points
     }
 }
 
@@ -286,6 +300,19 @@ impl<'a> SurfaceIndex<'a> {
     /// The closest surface point to `p` within `reach`, with its
     /// triangle's normal.
     fn nearest(&self, p: Vec3, reach: f64) -> Option<(Vec3, Vec3, f64)> {
+        let (q, t, distance) = self.nearest_triangle(p, reach)?;
+        let [a, b, c] = self.mesh.corners(self.triangles[t] as usize);
+        Some((q, (b - a).cross(c - a).normalize_or_zero(), distance))
+    }
+
+    /// Whether some surface lies within `reach` of `p`.
+    pub fn reaches(&self, p: Vec3, reach: f64) -> bool {
+        self.nearest_triangle(p, reach).is_some()
+    }
+
+    /// The closest surface point to `p` within `reach`, the number of its
+    /// triangle in this index, and its distance.
+    fn nearest_triangle(&self, p: Vec3, reach: f64) -> Option<(Vec3, usize, f64)> {
         let home = ((p - self.origin) / self.cell)
             .floor()
             .to_array()
@@ -333,10 +360,7 @@ impl<'a> SurfaceIndex<'a> {
                 break;
             }
         }
-        best.map(|(q, t)| {
-            let [a, b, c] = self.mesh.corners(self.triangles[t] as usize);
-            (q, (b - a).cross(c - a).normalize_or_zero(), bound)
-        })
+        best.map(|(q, t)| (q, t, bound))
     }
 }
 
@@ -389,36 +413,57 @@ pub fn align(
 /// made twisted-homer's search three times as long.
 const TURN_STEPS: usize = 4;
 
+/// How the template's surface lies on the scene's at a pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceFit {
+    /// The share of the samples that lie within the tolerance of the
+    /// scene's surface, of those not hidden (see [`surface_fit`]).
+    pub agreement: f64,
+    /// The root mean square distance of the samples that lie within the
+    /// tolerance to the scene's surface (scene units): float rounding for
+    /// an exact copy, measurably more for a near twin or a bent copy.
+    pub residual: f64,
+    /// The scene triangle (mesh numbering) each of those samples lies on.
+    pub landed: Vec<u32>,
+}
+
 /// The share of `samples`, placed by `pose`, that lie within `tolerance` of
 /// the scene's surface, of those not `hidden` (inside other material: a
 /// neighbour fused to the copy, the ground), up to `max_hidden` of them.
 /// This is the final word on an occurrence: the voxels' test allows a voxel
 /// or two, several per cent of a small template's radius, where a similar
 /// but different shape (the other end of a rocker arm, the other ear of a
-/// bunny) still lands.
-pub fn surface_agreement(
+/// bunny) still lands. With it, the residual and where the samples
+/// landed.
+pub fn surface_fit(
     samples: &SurfaceSamples,
     scene: &SurfaceIndex,
     pose: Rigid,
     tolerance: f64,
     hidden: impl Fn(Vec3) -> bool,
     max_hidden: f64,
-) -> f64 {
-    let (mut on, mut buried) = (0usize, 0usize);
+) -> SurfaceFit {
+    let (mut landed, mut buried, mut squares) = (Vec::new(), 0usize, 0.0);
     for &p in &samples.points {
         let q = pose.apply(p);
-        if scene.nearest(q, tolerance).is_some() {
-            on += 1;
+        if let Some((_, t, distance)) = scene.nearest_triangle(q, tolerance) {
+            landed.push(scene.triangles[t]);
+            squares += distance * distance;
         } else if hidden(q) {
             buried += 1;
         }
     }
+    let on = landed.len();
     let total = samples.points.len() as f64;
     let excused = (buried as f64).min(max_hidden * total);
-    if total - excused <= 0.0 {
-        0.0
-    } else {
-        on as f64 / (total - excused)
+    SurfaceFit {
+        agreement: if total - excused <= 0.0 {
+            0.0
+        } else {
+            on as f64 / (total - excused)
+        },
+        residual: (squares / on.max(1) as f64).sqrt(),
+        landed,
     }
 }
 
@@ -734,6 +779,17 @@ mod tests {
         assert!((a.pose.translation - truth.translation).length() < 0.05);
     }
 
+    fn agreement(
+        samples: &SurfaceSamples,
+        index: &SurfaceIndex,
+        pose: Rigid,
+        tol: f64,
+        hidden: impl Fn(Vec3) -> bool,
+        max_hidden: f64,
+    ) -> f64 {
+        surface_fit(samples, index, pose, tol, hidden, max_hidden).agreement
+    }
+
     /// A bar of 4 x 1 x 1 laid on one of 3 x 1 x 1: of its 18 square units
     /// of surface, the far end and the side faces past `tolerance` from the
     /// shorter bar's end (5 - 4 tolerance) are off. What `hidden` excuses
@@ -751,16 +807,16 @@ mod tests {
         let tol = 0.05;
         let off = 5.0 - 4.0 * tol;
         let none = |_: Vec3| false;
-        let a = surface_agreement(&samples, &index, pose, tol, none, 1.0);
+        let a = agreement(&samples, &index, pose, tol, none, 1.0);
         assert!((a - (18.0 - off) / 18.0).abs() < 0.01, "{a}");
         // Past x = 3.5: 3 square units off the scene, all excused, or a
         // tenth of the samples.
         let beyond = |p: Vec3| p.x > 3.5;
-        let a = surface_agreement(&samples, &index, pose, tol, beyond, 1.0);
+        let a = agreement(&samples, &index, pose, tol, beyond, 1.0);
         assert!((a - (18.0 - off) / 15.0).abs() < 0.01, "{a}");
-        let a = surface_agreement(&samples, &index, pose, tol, beyond, 0.1);
+        let a = agreement(&samples, &index, pose, tol, beyond, 0.1);
         assert!((a - (18.0 - off) / 16.2).abs() < 0.01, "{a}");
-        let exact = surface_agreement(&samples, &self::index(&template, 0.1), pose, tol, none, 0.0);
+        let exact = agreement(&samples, &self::index(&template, 0.1), pose, tol, none, 0.0);
         assert_eq!(exact, 1.0);
     }
 

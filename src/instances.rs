@@ -38,6 +38,15 @@ pub struct Instance {
     /// scene's). It maps c_T to `position`. None where the descriptor has no
     /// verification (curvature), which is what finds the rotation.
     pub pose: Option<[[f64; 4]; 4]>,
+    /// How closely the template's surface lies on the scene's at the
+    /// pose: the root mean square distance of its samples within the
+    /// surface tolerance, in scene units. Float rounding for an exact copy,
+    /// measurably more for a near twin. None without a pose.
+    pub residual: Option<f64>,
+    /// Whether the copy's own part is entirely explained by the template (a
+    /// whole copy), rather than lying inside a larger whole; None without a
+    /// pose.
+    pub whole: Option<bool>,
 }
 
 /// A survivor with its verification.
@@ -118,6 +127,8 @@ pub fn group(
                     score: Some(v.score),
                     support: 0,
                     pose: v.pose,
+                    residual: None,
+                    whole: None,
                 },
             ));
         }

@@ -181,6 +181,15 @@ pub struct MatchOptions {
     /// Default: 2, about 3x fewer candidates.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.candidate_spacing))]
     pub candidate_spacing: u32,
+    /// Keep whole copies only: instances whose own part the template
+    /// explains entirely, not a larger part that holds it.
+    ///
+    /// For deduplicating CAD and BIM exports; the default reports
+    /// part-in-whole occurrences too, the paper's case (each instance's
+    /// `whole` says which it is). Not with the curvature descriptor, which
+    /// finds no pose.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None))]
+    pub whole_copies: bool,
     /// When extra material (other objects) excuses the outer layers; see
     /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
     /// The library's setting, for experiments; not on the CLI or in JavaScript.
@@ -209,6 +218,7 @@ impl MatchOptions {
         surface_tolerance: 0.03,
         template_voxels: 32.0,
         candidate_spacing: 2,
+        whole_copies: false,
         clutter: ClutterPolicy::DEFAULT,
         backend: Threads::Parallel,
     };
@@ -271,6 +281,12 @@ impl MatchOptions {
             return Err(Error::invalid_option(
                 "layers",
                 format!("{} is outside 1..=64", self.layers),
+            ));
+        }
+        if self.whole_copies && self.descriptor == DescriptorKind::Curvature {
+            return Err(Error::invalid_option(
+                "whole copies",
+                "the curvature descriptor finds no pose, so it cannot tell a whole copy; use a voxel descriptor".to_string(),
             ));
         }
         Ok(())

@@ -80,6 +80,7 @@ fn check(interface_name: &str, defaults: BTreeMap<String, Value>, extra: &[&str]
         let agrees = match value {
             Value::Number(n) => stated.parse::<f64>().ok() == n.as_f64(),
             Value::String(s) => &stated == s,
+            Value::Bool(b) => stated == b.to_string(),
             other => panic!("{key}: an option of an unexpected type {other}"),
         };
         assert!(

@@ -72,6 +72,8 @@ export interface MatchOptions {
   templateVoxels?: number;
   /** One candidate point per cube of this many voxels a side; 1 makes every skin voxel a candidate (default 2). */
   candidateSpacing?: number;
+  /** Keep whole copies only: instances whose own part the template explains entirely, not a larger part that holds it, as part-in-whole (the paper's case) reports; not with the curvature descriptor (default false). */
+  wholeCopies?: boolean;
 }
 
 /** Every option's default, as the core defines them. */
@@ -105,6 +107,10 @@ export interface Instance {
   support: number;
   /** The template's pose: a row-major 4x4 matrix from template to scene coordinates (it maps c_T to `position`); null for curvature, which finds no rotation. */
   pose: Matrix4 | null;
+  /** Root mean square distance of the template's surface within the tolerance to the scene's, in scene units: float rounding for an exact copy, more for a near twin; null for curvature. */
+  residual: number | null;
+  /** Whether the copy's own part is entirely explained by the template (a whole copy) rather than part of a larger whole; null for curvature. */
+  whole: boolean | null;
 }
 
 /** A row-major 4x4 matrix; the last row is 0, 0, 0, 1. */

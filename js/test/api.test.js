@@ -31,6 +31,7 @@ test('the option defaults are the core schema and are valid options', async () =
   assert.deepEqual(Object.keys(defaults.scene), ['resolution']);
   assert.equal(defaults.match.descriptor, 'volume+harmonics');
   assert.equal(defaults.match.groupRadius, 1);
+  assert.equal(defaults.match.wholeCopies, false);
   const scene = Scene.fromBytes(sceneBytes, { ...defaults.scene, resolution: 128 });
   const template = Template.fromBytes(templateBytes);
   assert.ok(Array.isArray(scene.match(template, defaults.match).instances));
@@ -110,6 +111,13 @@ test('bad input is an Error and the module stays usable', async () => {
     const mapped = [0, 1, 2].map((r) => t[r][0] * c[0] + t[r][1] * c[1] + t[r][2] * c[2] + t[r][3]);
     mapped.forEach((v, k) => assert.ok(Math.abs(v - instance.position[k]) < 1e-9));
   }
+  // The bunnies stand apart: each is a whole copy, fitted within rounding.
+  for (const instance of report.instances) {
+    assert.equal(instance.whole, true);
+    assert.ok(instance.residual >= 0 && instance.residual < 1e-4 * report.template.radius, String(instance.residual));
+  }
+  assert.equal(scene.match(template, { wholeCopies: true }).instances.length, report.instances.length);
+  assert.throws(() => scene.match(template, { wholeCopies: true, descriptor: 'curvature' }), /whole ?copies/i);
   assert.ok(memoryBytes() > 0);
   template.free();
   scene.free();

@@ -68,7 +68,15 @@ impl fmt::Display for Table<'_> {
             if let Some(score) = inst.score {
                 write!(f, "  score {score:.3}")?;
             }
-            writeln!(f, "  support {}", inst.support)?;
+            if let Some(residual) = inst.residual {
+                write!(f, "  residual {residual:.2e}")?;
+            }
+            write!(f, "  support {}", inst.support)?;
+            match inst.whole {
+                Some(true) => writeln!(f, "  whole copy")?,
+                Some(false) => writeln!(f, "  part of a larger whole")?,
+                None => writeln!(f)?,
+            }
         }
         let tm = &report.timings;
         write!(

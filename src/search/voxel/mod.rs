@@ -17,6 +17,7 @@ mod parts;
 mod place;
 mod prepare;
 mod waves;
+mod whole;
 mod windows;
 
 use std::cell::RefCell;

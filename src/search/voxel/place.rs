@@ -4,7 +4,8 @@
 //! and score); and an instance carried to a congruent copy of its part.
 
 use super::prepare::PartSearch;
-use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_agreement};
+use super::whole::{Components, is_whole, template_index};
+use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_fit};
 use crate::cascade::Survivor;
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
 use crate::math::{Aabb, Vec3};
@@ -90,7 +91,7 @@ impl PartSearch<'_> {
             |p| voxels.position(p),
             options.group_radius * self.template.radius(),
         );
-        align_instances(
+        let landed = align_instances(
             &mut instances,
             self.scene,
             part,
@@ -101,18 +102,52 @@ impl PartSearch<'_> {
             options.surface_tolerance,
             options.backend,
         );
+        self.tell_whole(&mut instances, part, &landed);
         // The meshes' verdict at the exact pose.
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
+        if options.whole_copies {
+            instances.retain(|i| i.whole == Some(true));
+        }
         instances
+    }
+
+    /// Says of each instance that passes the meshes' verdict whether it is
+    /// a whole copy ([`super::whole`]); `landed` holds the scene triangles
+    /// its template samples lie on.
+    fn tell_whole(&self, instances: &mut [Instance], part: &ScenePart, landed: &[Vec<u32>]) {
+        let passes = |i: &Instance| i.score.is_some_and(|s| s >= self.options.verify_threshold);
+        if !instances.iter().any(passes) {
+            return;
+        }
+        let mesh = self.scene.mesh();
+        // A template of one component searches parts of one component.
+        let components = Components::of(mesh, part.triangles(), self.two_sided);
+        let tolerance = self.options.surface_tolerance * self.template.radius();
+        let index = template_index(&self.surface, tolerance);
+        for (instance, landed) in instances.iter_mut().zip(landed) {
+            if let (true, Some(pose)) = (passes(instance), instance.pose) {
+                let pose = Rigid::from_rows(&pose);
+                instance.whole = Some(is_whole(
+                    mesh,
+                    &components,
+                    landed,
+                    &self.samples,
+                    &index,
+                    &pose,
+                    tolerance,
+                ));
+            }
+        }
     }
 }
 
 /// Refines each instance's pose on the meshes ([`crate::align`]): the
 /// template's samples onto `part`'s triangles around the instance. The
-/// instance's position follows its pose, and its score falls to the share
+/// instance's position follows its pose, its score falls to the share
 /// of the template's surface within `surface_tolerance` of r_k of the
 /// scene's there (what lands inside `voxels`' solid is hidden, up to
-/// `max_hidden`).
+/// `max_hidden`), and its residual is that surface's distance. Returns,
+/// per instance, the scene triangles its samples landed on.
 #[allow(clippy::too_many_arguments)]
 fn align_instances(
     instances: &mut [Instance],
@@ -124,9 +159,9 @@ fn align_instances(
     max_hidden: f64,
     surface_tolerance: f64,
     backend: crate::exec::Threads,
-) {
+) -> Vec<Vec<u32>> {
     if samples.is_empty() {
-        return;
+        return vec![Vec::new(); instances.len()];
     }
     let mesh = scene.mesh();
     let voxel = voxels.grid().spec().voxel_size;
@@ -157,16 +192,23 @@ fn align_instances(
         let cell = (1.5 * voxel).max(2.0 * reach / 48.0);
         let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
         let pose = align(samples, &index, start, voxel).pose;
-        let agreement = surface_agreement(samples, &index, pose, tolerance, hidden, max_hidden);
-        Some((pose, agreement))
+        let fit = surface_fit(samples, &index, pose, tolerance, hidden, max_hidden);
+        Some((pose, fit))
     });
-    for (instance, refined) in instances.iter_mut().zip(refined) {
-        if let Some((pose, agreement)) = refined {
+    instances
+        .iter_mut()
+        .zip(refined)
+        .map(|(instance, refined)| {
+            let Some((pose, fit)) = refined else {
+                return Vec::new();
+            };
             instance.pose = Some(pose.to_rows());
             instance.position = pose.apply(template.center()).to_array();
-            instance.score = Some(agreement);
-        }
-    }
+            instance.score = Some(fit.agreement);
+            instance.residual = Some(fit.residual);
+            fit.landed
+        })
+        .collect()
 }
 
 /// `instance`, found on a part, on that part's copy `motion` away.

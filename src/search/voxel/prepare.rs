@@ -5,11 +5,12 @@
 
 use super::near_vertices::{self, template_gap};
 use crate::align::SurfaceSamples;
-use crate::budget::{add_ball_tables, voxel_bytes};
+use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{MemoryEstimate, Result};
 use crate::math::{Aabb, Vec3};
+use crate::mesh::TriMesh;
 use crate::options::{DescriptorKind, MatchOptions};
 use crate::scene::{Lattice, Parts, Scene};
 use crate::template::{TemplateSource, VoxelTemplate};
@@ -31,6 +32,9 @@ pub(super) struct PartSearch<'a> {
     /// Per anchor: the verifier placed by it.
     pub(super) verifiers: Vec<Verifier>,
     pub(super) samples: SurfaceSamples,
+    /// The template's surface the samples are taken on (template
+    /// coordinates): what a whole copy's own part must lie on.
+    pub(super) surface: TriMesh,
     pub(super) max_hidden: f64,
     /// A part is one component: what the template does not explain of it
     /// is the copy's own (see `Verifier::check`).
@@ -61,7 +65,8 @@ impl<'a> PartSearch<'a> {
         let template = VoxelTemplate::new(source, scene, &lattice, options)?;
         let voxel = lattice.spec.voxel_size;
         let radii_voxels: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
-        let held = search_estimate(scene, &template, &radii_voxels);
+        let surface = template_surface(source, scene, &template);
+        let held = search_estimate(scene, &template, &surface, &radii_voxels);
         held.check(scene.memory_budget(), || {
             too_much_for_template(&radii_voxels, &lattice)
         })?;
@@ -88,7 +93,8 @@ impl<'a> PartSearch<'a> {
             template_harmonics,
             transform,
             verifiers,
-            samples: template_samples(source, scene, &template),
+            samples: template_samples(&surface, &template),
+            surface,
             max_hidden,
             two_sided: template.parts() == Parts::Components,
             vertex_reach,
@@ -177,30 +183,37 @@ fn anchor_gap(scene: &Scene, source: &TemplateSource, template: &VoxelTemplate) 
     }
 }
 
-/// Surface samples the template's pose is refined with: a model's whole
-/// surface, or the selected part's within the sphere.
-fn template_samples(
-    source: &TemplateSource,
-    scene: &Scene,
-    template: &VoxelTemplate,
-) -> SurfaceSamples {
-    let (c, r) = (template.center(), template.radius());
-    let triangles: Vec<[Vec3; 3]> = match source {
-        TemplateSource::Model(model) => (0..model.triangles().len())
-            .map(|t| model.corners(t))
-            .collect(),
+/// The template's surface: a model's, or the selected part's triangles
+/// that reach into the sphere.
+fn template_surface(source: &TemplateSource, scene: &Scene, template: &VoxelTemplate) -> TriMesh {
+    match source {
+        TemplateSource::Model(model) => model.clone(),
         TemplateSource::Selection { .. } => {
+            let (c, r) = (template.center(), template.radius());
             let part = template
                 .scene_part()
                 .expect("a selection lies on a scene part");
-            scene.parts(Parts::Components)[part]
+            let mesh = scene.mesh();
+            let near: Vec<u32> = scene.parts(Parts::Components)[part]
                 .triangles()
                 .iter()
-                .map(|&t| scene.mesh().corners(t as usize))
-                .filter(|t| Aabb::around(t.iter().copied()).is_some_and(|b| b.distance_to(c) <= r))
-                .collect()
+                .copied()
+                .filter(|&t| {
+                    Aabb::around(mesh.corners(t as usize)).is_some_and(|b| b.distance_to(c) <= r)
+                })
+                .collect();
+            mesh.subset(&near)
         }
-    };
+    }
+}
+
+/// Surface samples the template's pose is refined with: the template's
+/// `surface` within its sphere.
+fn template_samples(surface: &TriMesh, template: &VoxelTemplate) -> SurfaceSamples {
+    let (c, r) = (template.center(), template.radius());
+    let triangles: Vec<[Vec3; 3]> = (0..surface.triangles().len())
+        .map(|t| surface.corners(t))
+        .collect();
     SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
 }
 
@@ -210,8 +223,17 @@ const ALIGN_SAMPLES: usize = 1024;
 /// What a voxel search holds besides the part it searches: the scene's
 /// mesh, the template's voxel grids and the run tables of the volume and
 /// verification balls.
-fn search_estimate(scene: &Scene, template: &VoxelTemplate, radii: &[f64]) -> MemoryEstimate {
+fn search_estimate(
+    scene: &Scene,
+    template: &VoxelTemplate,
+    surface: &TriMesh,
+    radii: &[f64],
+) -> MemoryEstimate {
     let mut estimate = scene.mesh_estimate();
+    estimate.add(
+        "the template's surface",
+        mesh_bytes(surface.positions().len(), surface.triangles().len()),
+    );
     estimate.add(
         "the template's voxel grids",
         voxel_bytes(template.voxels().grid().spec()),
