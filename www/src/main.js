@@ -420,6 +420,7 @@ function searchOptions() {
     const value = Number($(id).value);
     if ($(id).value !== '' && Number.isFinite(value)) options[key] = value;
   }
+  if ($('whole-copies').checked && options.descriptor !== 'curvature') options.wholeCopies = true;
   return options;
 }
 
@@ -431,6 +432,8 @@ function showThresholds() {
     else element.dataset.hidden = '';
   }
   $('resolution').disabled = descriptor() === 'curvature';
+  // The curvature search finds no pose, so it cannot tell a whole copy.
+  $('whole-copies').disabled = descriptor() === 'curvature';
 }
 
 async function runSearch() {
@@ -566,7 +569,7 @@ $('descriptor').addEventListener('change', () => {
   showThresholds();
   rerunSoon();
 });
-for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing']) {
+for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing', 'whole-copies']) {
   $(id).addEventListener('change', rerunSoon);
 }
 
@@ -633,7 +636,8 @@ function showResults(report, wallMs) {
     button.querySelector('.name').textContent = state.names[index] ?? '';
     const score = instance.score === null ? '' : `score ${formatShare(instance.score)} · `;
     button.querySelector('.distance').textContent = `${score}distance ${instance.distance.toFixed(3)}`;
-    button.querySelector('.detail').textContent = `support ${instance.support}`;
+    const whole = instance.whole === true ? ' · whole copy' : instance.whole === false ? ' · part of a larger whole' : '';
+    button.querySelector('.detail').textContent = `support ${instance.support}${whole}`;
     button.title = `position ${instance.position.map((v) => formatLength(v)).join(', ')}`;
     button.addEventListener('click', () => focusInstance(index));
     item.append(button);

@@ -243,6 +243,8 @@ test('viewer: curvature on twisted-homer, over every vertex and with the sampled
     await waitForStatus(page, 'ready');
     await page.selectOption('#descriptor', 'curvature');
     assert.ok(await page.locator('#curvature-spacing').isVisible(), 'the sampling input shows with curvature');
+    // No pose, so no whole copies: the box is off, and a check left on is not sent.
+    assert.ok(await page.locator('#whole-copies').isDisabled(), 'whole copies is off with curvature');
     await page.setInputFiles('#template-input', resolve(twistedHomer, 'template.glb'));
     await waitForStatus(page, 'done');
     const every = await page.evaluate(() => globalThis.viewer.report);
@@ -540,7 +542,7 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     const names = await page.evaluate(() => globalThis.viewer.names);
     assert.equal(names.length, 4);
     for (const name of names) assert.match(name, /^stanford-bunny/);
-    assert.match(await page.locator('#instance-list li').first().textContent(), /stanford-bunny.*score.*distance.*support/);
+    assert.match(await page.locator('#instance-list li').first().textContent(), /stanford-bunny.*score.*distance.*support \d+ · whole copy/);
     assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 4);
     await page.uncheck('#show-ghosts');
     assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 0);
