@@ -55,7 +55,7 @@ fn zoo_bunny_matches_the_native_run() {
     };
     let callback: &Function = record.as_ref().unchecked_ref();
     let report = scene
-        .run_match(&template, JsValue::UNDEFINED, Some(callback.clone()))
+        .run_match(&template, JsValue::UNDEFINED, Some(callback.clone()), None)
         .unwrap();
 
     let instances: Array = get(&report, "instances").unchecked_into();
@@ -110,20 +110,20 @@ fn progress_callback_cancels_with_false_or_a_throw() {
     let stop = Function::new_no_args("return false;");
     let error = message(
         scene
-            .run_match(&template, JsValue::UNDEFINED, Some(stop))
+            .run_match(&template, JsValue::UNDEFINED, Some(stop), None)
             .unwrap_err(),
     );
     assert!(error.contains("cancelled"), "{error}");
     let throw = Function::new_no_args("throw new Error('user pressed stop');");
     let error = message(
         scene
-            .run_match(&template, JsValue::UNDEFINED, Some(throw))
+            .run_match(&template, JsValue::UNDEFINED, Some(throw), None)
             .unwrap_err(),
     );
     assert!(error.contains("user pressed stop"), "{error}");
     // The handle still works.
     let report = scene
-        .run_match(&template, JsValue::UNDEFINED, None)
+        .run_match(&template, JsValue::UNDEFINED, None, None)
         .unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }
@@ -178,17 +178,25 @@ fn bad_input_is_an_error_and_the_module_stays_usable() {
         ("42", "must be an object"),
         ("[1]", "must be an object"),
     ] {
-        let e = message(scene.run_match(&template, options(bad), None).unwrap_err());
+        let e = message(
+            scene
+                .run_match(&template, options(bad), None, None)
+                .unwrap_err(),
+        );
         assert!(e.contains(expect), "{bad}: {e}");
     }
     // A selection that misses the scene is the core's error.
     let far = TemplateHandle::from_selection(1e6, 1e6, 1e6, 1.0).unwrap();
-    let e = message(scene.run_match(&far, JsValue::UNDEFINED, None).unwrap_err());
+    let e = message(
+        scene
+            .run_match(&far, JsValue::UNDEFINED, None, None)
+            .unwrap_err(),
+    );
     assert!(e.contains("touches no surface"), "{e}");
     // After all of that, the same handles still search (and kept the old grid).
     assert_eq!(scene.resolution(), 128);
     let report = scene
-        .run_match(&template, Object::new().into(), None)
+        .run_match(&template, Object::new().into(), None, None)
         .unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }
@@ -209,7 +217,9 @@ fn the_option_defaults_are_accepted_as_options() {
     Reflect::set(&scene_defaults, &"resolution".into(), &128.into()).unwrap();
     let mut scene = SceneHandle::from_bytes(SCENE, scene_defaults).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
-    let report = scene.run_match(&template, match_defaults, None).unwrap();
+    let report = scene
+        .run_match(&template, match_defaults, None, None)
+        .unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }
 
@@ -226,7 +236,7 @@ fn options_that_throw_while_read_are_an_error_and_the_scene_stays_usable() {
     );
     for trap in ["ownKeys", "getOwnPropertyDescriptor", "get"] {
         let options = proxy.call1(&JsValue::NULL, &trap.into()).unwrap();
-        let e = message(scene.run_match(&template, options, None).unwrap_err());
+        let e = message(scene.run_match(&template, options, None, None).unwrap_err());
         assert!(e.contains("cannot read"), "{trap}: {e}");
     }
     let revoked = Function::new_no_args(
@@ -234,17 +244,17 @@ fn options_that_throw_while_read_are_an_error_and_the_scene_stays_usable() {
     )
     .call0(&JsValue::NULL)
     .unwrap();
-    let e = message(scene.run_match(&template, revoked, None).unwrap_err());
+    let e = message(scene.run_match(&template, revoked, None, None).unwrap_err());
     assert!(e.contains("must be an object"), "{e}");
     // The caller's key is quoted escaped, never as a control character.
     let e = message(
         scene
-            .run_match(&template, js(r#"{"k\u001b[2J": 1}"#), None)
+            .run_match(&template, js(r#"{"k\u001b[2J": 1}"#), None, None)
             .unwrap_err(),
     );
     assert!(e.contains(r"'k\u{1b}[2J'") && !e.contains('\u{1b}'), "{e}");
     let report = scene
-        .run_match(&template, JsValue::UNDEFINED, None)
+        .run_match(&template, JsValue::UNDEFINED, None, None)
         .unwrap();
     assert!(get(&report, "instances").is_instance_of::<Array>());
 }

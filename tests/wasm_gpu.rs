@@ -44,10 +44,10 @@ async fn webgpu_finds_what_the_cpu_finds() {
     let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let cpu = scene
-        .run_match(&template, JsValue::UNDEFINED, None)
+        .run_match(&template, JsValue::UNDEFINED, None, None)
         .unwrap();
     let gpu = scene
-        .run_match_gpu(&template, JsValue::UNDEFINED, None, true)
+        .run_match_gpu(&template, JsValue::UNDEFINED, None, None, true)
         .await
         .unwrap();
     let info = get(&gpu, "gpu");
@@ -78,7 +78,7 @@ async fn webgpu_finds_what_the_cpu_finds() {
     // Without leave to use a software adapter, SwiftShader is not used: the
     // CPU runs and the report says no GPU ran.
     let plain = scene
-        .run_match_gpu(&template, JsValue::UNDEFINED, None, false)
+        .run_match_gpu(&template, JsValue::UNDEFINED, None, None, false)
         .await
         .unwrap();
     assert!(get(&plain, "gpu").is_null());
