@@ -172,6 +172,71 @@ pub fn merge_duplicates(mut instances: Vec<Instance>, radius: f64) -> Vec<Instan
     kept
 }
 
+/// A residual this far above float rounding, as a share of r_k, is still
+/// an exact copy's: the mesh alignment stops a little short of the last bit.
+const EXACT_FIT: f64 = 1e-4;
+
+/// Where the scene holds exact copies, an instance whose residual passes
+/// float rounding by this share of r_k, ten times the exact copies' bound,
+/// does not fit exactly...
+const NEAR_TWIN_FIT: f64 = 1e-3;
+
+/// ...and, if this share of its template samples does not land either, it
+/// is a near twin (an ankle for a knee lands 0.88). A copy meshed anew
+/// lands whole (1.0) though it fits no better than a twin (remeshed heads
+/// at up to 2.2e-3 r_k beside an exact one).
+const FULL_COVER: f64 = 0.95;
+
+/// A selection's own instance lies where its template was read, within
+/// this share of r_k.
+const SAME_PLACE: f64 = 0.01;
+
+/// How many f32 roundings of a coordinate a residual may hold: the scene's
+/// and the template's positions are rounded, and so are their triangles'
+/// closest points.
+const ROUNDING_ULPS: f64 = 16.0;
+
+/// Drops the near twins where the scene shows what an exact copy fits at.
+///
+/// An exact CAD or BIM copy lies on the template within float rounding; a
+/// similar part (an ankle for a knee) lies measurably off it, and some of
+/// the template lands on nothing. A fixed score cannot tell them apart
+/// without losing bent copies, so the scene decides: only where some
+/// instance fits within rounding (the data has exact copies) are those
+/// that neither fit within [`NEAR_TWIN_FIT`] nor land [`FULL_COVER`]
+/// refused. A scene of bent or remeshed copies only keeps them all. Rounding grows
+/// with the coordinates' magnitude: a copy far from the origin rounds more,
+/// and `template_center`'s magnitude counts too. A selection's template is
+/// `in_scene`: the instance it is read from fits exactly whatever the data,
+/// so it is no evidence.
+pub fn refuse_near_twins(
+    instances: &mut Vec<Instance>,
+    template_center: Vec3,
+    radius: f64,
+    in_scene: bool,
+) {
+    let rounding = |i: &Instance| {
+        let magnitude = Vec3::from(i.position)
+            .length()
+            .max(template_center.length())
+            + radius;
+        ROUNDING_ULPS * f64::from(f32::EPSILON) * magnitude
+    };
+    let excess = |i: &Instance| i.residual.map(|r| (r - rounding(i)) / radius);
+    let itself = |i: &Instance| {
+        in_scene && Vec3::from(i.position).distance(template_center) <= SAME_PLACE * radius
+    };
+    let exact = instances
+        .iter()
+        .any(|i| !itself(i) && excess(i).is_some_and(|e| e <= EXACT_FIT));
+    if exact {
+        let twin = |i: &Instance| {
+            excess(i).is_some_and(|e| e > NEAR_TWIN_FIT) && i.score.is_some_and(|s| s < FULL_COVER)
+        };
+        instances.retain(|i| !twin(i));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,5 +305,53 @@ mod tests {
         let moved = apply(center + Vec3::X) - position;
         assert!((moved - Vec3::Y).length() < 1e-12, "{moved}");
         assert_eq!(t[3], [0.0, 0.0, 0.0, 1.0]);
+    }
+
+    fn fitted(x: f64, residual: f64) -> Instance {
+        Instance {
+            position: [x, 0.0, 0.0],
+            distance: 0.0,
+            score: Some(if residual > 1e-4 { 0.9 } else { 1.0 }),
+            support: 1,
+            pose: None,
+            residual: Some(residual),
+            whole: Some(true),
+        }
+    }
+
+    #[test]
+    fn near_twins_go_only_where_the_scene_has_exact_copies() {
+        let radius = 0.5;
+        let exact = fitted(1.0, 1e-7);
+        let twin = fitted(3.0, 2e-3 * radius);
+        let far_exact = Instance {
+            score: Some(0.9),
+            ..fitted(1e4, 2e-4 * radius)
+        };
+        let mut with_exact = vec![exact.clone(), twin.clone(), far_exact.clone()];
+        refuse_near_twins(&mut with_exact, Vec3::ZERO, radius, false);
+        // Far from the origin, rounding alone is 2e-3 of a unit.
+        assert_eq!(with_exact, vec![exact, far_exact]);
+
+        let bent = fitted(2.0, 1e-2 * radius);
+        let mut bent_only = vec![bent.clone(), twin.clone()];
+        refuse_near_twins(&mut bent_only, Vec3::ZERO, radius, false);
+        assert_eq!(bent_only, vec![bent.clone(), twin.clone()]);
+
+        // A selection's own instance is exact whatever the copies are.
+        let selected = fitted(5.0, 0.0);
+        let mut selection = vec![selected.clone(), bent.clone()];
+        refuse_near_twins(&mut selection, Vec3::new(5.0, 0.0, 0.0), radius, true);
+        assert_eq!(selection, vec![selected, bent]);
+
+        // A copy meshed anew lands whole, though it fits no better.
+        let remeshed = Instance {
+            score: Some(1.0),
+            ..twin.clone()
+        };
+        let exact = fitted(1.0, 1e-7);
+        let mut mixed = vec![exact.clone(), remeshed.clone(), twin];
+        refuse_near_twins(&mut mixed, Vec3::ZERO, radius, false);
+        assert_eq!(mixed, vec![exact, remeshed]);
     }
 }

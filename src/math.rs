@@ -65,6 +65,28 @@ impl Aabb {
         let d = (self.min - p).max(p - self.max).max(Vec3::ZERO);
         d.length()
     }
+
+    /// The box around both.
+    pub fn union(self, other: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    /// The distance between the nearest points of two boxes (0 where they
+    /// overlap or touch).
+    pub fn gap(&self, other: &Aabb) -> f64 {
+        (self.min - other.max)
+            .max(other.min - self.max)
+            .max(Vec3::ZERO)
+            .length()
+    }
+
+    /// Whether the boxes share a point.
+    pub fn overlaps(&self, other: &Aabb) -> bool {
+        self.gap(other) == 0.0
+    }
 }
 
 /// `x.floor()` without a libm call (baseline x86-64 has no rounding

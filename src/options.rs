@@ -190,6 +190,16 @@ pub struct MatchOptions {
     /// finds no pose.
     #[cfg_attr(feature = "cli", arg(long, long_help = None))]
     pub whole_copies: bool,
+    /// Keep near twins: instances that fit the template measurably worse
+    /// than the scene's exact copies do.
+    ///
+    /// By default, where some instance fits the template within float
+    /// rounding (CAD and BIM copies do), those whose residual passes
+    /// rounding by 1e-3 r_k are refused: an ankle for a knee, a longer
+    /// leg. Scenes without an exact copy (bent or remeshed ones) keep them
+    /// all either way.
+    #[cfg_attr(feature = "cli", arg(long, long_help = None))]
+    pub keep_near_twins: bool,
     /// When extra material (other objects) excuses the outer layers; see
     /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
     /// The library's setting, for experiments; not on the CLI or in JavaScript.
@@ -219,6 +229,7 @@ impl MatchOptions {
         template_voxels: 32.0,
         candidate_spacing: 2,
         whole_copies: false,
+        keep_near_twins: false,
         clutter: ClutterPolicy::DEFAULT,
         backend: Threads::Parallel,
     };

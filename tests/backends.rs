@@ -5,7 +5,7 @@ mod common;
 
 use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
-use fast_reject::scene::{Parts, Scene, SceneOptions};
+use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
 use fast_reject::template::TemplateSource;
 
@@ -33,7 +33,7 @@ fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
         .unwrap();
     let reach = serial.template.radius / lattice.spec.voxel_size;
     let held = fast_reject::MemoryEstimate::default();
-    let parts = |scene: &Scene| scene.parts(Parts::Components).to_vec();
+    let parts = |scene: &Scene| scene.parts().to_vec();
     for (i, (a, b)) in parts(&scene_s).iter().zip(parts(&scene_p)).enumerate() {
         let s = scene_s.voxelize_part(a, &lattice, reach, &held).unwrap();
         let p = scene_p.voxelize_part(&b, &lattice, reach, &held).unwrap();

@@ -100,3 +100,25 @@ fn real_saw_roller() {
     common::assert_finds_everything("real-saw-roller", false, &report);
     assert_poses("real-saw-roller", &report);
 }
+
+#[test]
+fn real_t12_knee() {
+    // Real CAD: a robot's knee of two shells between its thigh and shin,
+    // 5% of the robot. The thigh and shin, larger than the knee's shells,
+    // stay out of its part; the ankles, near twins that land 88% of the
+    // knee, are refused because the knees fit within float rounding.
+    let report = run("real-t12-knee", false);
+    common::assert_finds_everything("real-t12-knee", false, &report);
+    assert_poses("real-t12-knee", &report);
+}
+
+#[test]
+fn real_truck_wheels() {
+    // Real data: a wheel pair, two shells apart, a large part wrapped by
+    // the truck's body, with an axle between the wheels. The body and the
+    // axle are larger than a wheel, so neither is gathered with the
+    // wheels.
+    let report = run("real-truck-wheels", false);
+    common::assert_finds_everything("real-truck-wheels", false, &report);
+    assert_poses("real-truck-wheels", &report);
+}

@@ -74,6 +74,8 @@ export interface MatchOptions {
   candidateSpacing?: number;
   /** Keep whole copies only: instances whose own part the template explains entirely, not a larger part that holds it, as part-in-whole (the paper's case) reports; not with the curvature descriptor (default false). */
   wholeCopies?: boolean;
+  /** Keep near twins: where some instance fits the template within float rounding (exact CAD or BIM copies), those that neither fit within 1e-3 of its radius nor land 95% of its surface are refused unless this is set (default false). */
+  keepNearTwins?: boolean;
 }
 
 /** Every option's default, as the core defines them. */

@@ -12,6 +12,7 @@ use crate::exec::Threads;
 use crate::math::Aabb;
 use crate::mesh::TriMesh;
 use crate::voxel::{GridSpec, PADDING, WindowedMesh};
+use std::borrow::Cow;
 use std::sync::OnceLock;
 
 mod part_voxels;
@@ -19,8 +20,8 @@ mod parts;
 
 pub use part_voxels::PartVoxels;
 pub(crate) use part_voxels::nearest_voxel;
-pub use parts::ScenePart;
-use parts::{join_overlapping, split_parts};
+pub use parts::{ScenePart, ShellRule};
+use parts::{join_shells, split_parts};
 
 /// How to voxelize a scene.
 ///
@@ -131,19 +132,18 @@ pub struct Scene {
     memory_budget: u64,
     max_voxel_work: f64,
     parts: Vec<ScenePart>,
-    joined_parts: OnceLock<Vec<ScenePart>>,
     surface: OnceLock<(Surface, f64)>,
 }
 
 /// How a search divides the scene into parts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Parts {
     /// Each connected component alone: a template of one component.
     Components,
-    /// Components whose bounding boxes overlap, joined: a template made of
-    /// several shells (a mug whose handle is a shell of its own) is found
-    /// with its shells together.
-    OverlappingBoxes,
+    /// Components that may be shells of one copy, joined: a template made
+    /// of several shells (a mug whose handle is a shell of its own, a wheel
+    /// pair) is found with its shells together.
+    Shells(ShellRule),
 }
 
 impl Scene {
@@ -200,7 +200,6 @@ impl Scene {
             memory_budget: budget,
             max_voxel_work: options.max_voxel_work,
             parts,
-            joined_parts: OnceLock::new(),
             surface: OnceLock::new(),
         })
     }
@@ -215,14 +214,19 @@ impl Scene {
         &self.mesh
     }
 
+    /// The scene's connected components, in order of their first triangle.
+    pub fn parts(&self) -> &[ScenePart] {
+        &self.parts
+    }
+
     /// The parts a search looks at one by one, in order of their first
-    /// triangle.
-    pub fn parts(&self, kind: Parts) -> &[ScenePart] {
+    /// triangle: the components, or those `kind` joins.
+    pub fn parts_for(&self, kind: Parts) -> Cow<'_, [ScenePart]> {
         match kind {
-            Parts::Components => &self.parts,
-            Parts::OverlappingBoxes => self
-                .joined_parts
-                .get_or_init(|| join_overlapping(&self.mesh, &self.parts, self.backend)),
+            Parts::Components => Cow::Borrowed(&self.parts),
+            Parts::Shells(rule) => {
+                Cow::Owned(join_shells(&self.mesh, &self.parts, rule, self.backend))
+            }
         }
     }
 

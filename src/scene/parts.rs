@@ -1,9 +1,9 @@
-//! A scene's parts: its connected components, or those joined where their
-//! boxes overlap (a template of several shells), each with its bounding
-//! sphere and box.
+//! A scene's parts: its connected components, or those that may be shells
+//! of one copy joined (a template of several shells), each with its
+//! bounding sphere and box.
 
 use crate::exec::Threads;
-use crate::math::Aabb;
+use crate::math::{Aabb, Vec3};
 use crate::mesh::{TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere};
 
 /// One connected component of the scene's mesh: the voxel descriptors see
@@ -71,50 +71,204 @@ pub(super) fn split_parts(mesh: &TriMesh, backend: Threads) -> Vec<ScenePart> {
     ScenePart::all(mesh, connected_components(mesh, backend), backend)
 }
 
-/// Joins the parts whose bounding boxes overlap, transitively (a sweep
-/// along x, then union-find).
-pub(super) fn join_overlapping(
+/// How the shells of a template of several are gathered into one part:
+/// the scene's components no larger than the template's largest shell,
+/// joined where their boxes come as near each other as the template's
+/// shells do.
+///
+/// A copy's shell, or a piece of one, is no larger than the template's
+/// largest; so a larger component is not one and stays out of the copy's
+/// part: the body around a wheel pair, the axle between its wheels, the
+/// thigh a knee touches. (A copy whose shells are fused is one component
+/// as large as the template, searched alone.) And since a box holds its
+/// shell, two boxes are never further apart than any two of their shells'
+/// points: the template's points measure the gap, whatever the copy's
+/// rotation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShellRule {
+    /// The largest bounding radius a copy's shell, or a piece of one, can
+    /// have.
+    pub largest: f64,
+    /// Boxes at most this far apart are joined.
+    pub gap: f64,
+}
+
+/// A copy's shell may be this much larger than the template's: meshing and
+/// rounding move a bounding sphere a little.
+const SHELL_RADIUS_SLACK: f64 = 1.05;
+
+/// At most this many point pairs are measured between a template's shells.
+const GAP_PAIRS: usize = 1 << 22;
+
+impl ShellRule {
+    /// The rule for a template `mesh` of bounding radius `radius` made of
+    /// `shells` (triangle lists): its largest shell, and the widest step
+    /// that links them all (single linkage over their nearest points).
+    pub fn of_template(
+        mesh: &TriMesh,
+        shells: &[Vec<u32>],
+        radius: f64,
+        backend: Threads,
+    ) -> ShellRule {
+        let largest = ScenePart::all(mesh, shells.to_vec(), backend)
+            .iter()
+            .map(ScenePart::radius)
+            .fold(0.0, f64::max);
+        let pair_count = shells.len() * shells.len().saturating_sub(1) / 2;
+        // Points spread over each shell: the nearest pair among them is a
+        // real pair, so the gap measured is never too small.
+        let per_shell = ((GAP_PAIRS / pair_count.max(1)) as f64).sqrt().max(8.0) as usize;
+        let points: Vec<Vec<Vec3>> = shells
+            .iter()
+            .map(|triangles| {
+                let mut corners: Vec<u32> = triangles
+                    .iter()
+                    .flat_map(|&t| mesh.triangles()[t as usize])
+                    .collect();
+                corners.sort_unstable();
+                corners.dedup();
+                let step = corners.len().div_ceil(per_shell).max(1);
+                corners
+                    .iter()
+                    .step_by(step)
+                    .map(|&v| mesh.vertex(v))
+                    .collect()
+            })
+            .collect();
+        let mut links: Vec<(f64, usize, usize)> = Vec::with_capacity(pair_count);
+        for a in 0..points.len() {
+            for b in a + 1..points.len() {
+                let nearest = points[a]
+                    .iter()
+                    .flat_map(|p| points[b].iter().map(move |q| p.distance(*q)))
+                    .fold(f64::INFINITY, f64::min);
+                links.push((nearest, a, b));
+            }
+        }
+        links.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut group: Vec<usize> = (0..shells.len()).collect();
+        let mut joined = 1;
+        let mut gap: f64 = 0.0;
+        for (distance, a, b) in links {
+            if joined == shells.len() {
+                break;
+            }
+            let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+            if ra != rb {
+                group[ra.max(rb)] = ra.min(rb);
+                joined += 1;
+                gap = gap.max(distance);
+            }
+        }
+        ShellRule {
+            largest: SHELL_RADIUS_SLACK * largest,
+            // Rounding of the copy's own positions.
+            gap: gap + 1e-6 * radius,
+        }
+    }
+}
+
+fn root(group: &mut [usize], mut i: usize) -> usize {
+    while group[i] != i {
+        group[i] = group[group[i]];
+        i = group[i];
+    }
+    i
+}
+
+/// The parts `rule` lets be shells of one copy, and each larger part with
+/// the groups its box meets; the groups are also searched alone, so a copy
+/// may be found twice.
+pub(super) fn join_shells(
     mesh: &TriMesh,
     parts: &[ScenePart],
+    rule: ShellRule,
     backend: Threads,
 ) -> Vec<ScenePart> {
-    let mut group: Vec<usize> = (0..parts.len()).collect();
-    fn root(group: &mut [usize], mut i: usize) -> usize {
-        while group[i] != i {
-            group[i] = group[group[i]];
-            i = group[i];
+    let shells = shell_groups(parts, rule);
+    // A larger part may still hold a copy's shell inside it (a block that
+    // runs on below, the paper's part-in-whole): it is searched with the
+    // groups its box meets, as well as they are alone.
+    let boxes: Vec<Aabb> = shells
+        .iter()
+        .map(|m| {
+            m.iter()
+                .map(|&p| parts[p].bounds)
+                .reduce(Aabb::union)
+                .expect("a member")
+        })
+        .collect();
+    let mut lists = shells.clone();
+    for (l, part) in parts
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.radius > rule.largest)
+    {
+        let mut with = vec![l];
+        for (m, b) in shells.iter().zip(&boxes) {
+            if b.overlaps(&part.bounds) {
+                with.extend_from_slice(m);
+            }
         }
-        i
+        lists.push(with);
     }
-    let mut by_x: Vec<usize> = (0..parts.len()).collect();
+    let first = |m: &Vec<usize>| m.iter().map(|&p| parts[p].triangles[0]).min();
+    lists.sort_by_key(|m| (first(m), m.len()));
+    joined_parts(mesh, parts, &lists, backend)
+}
+
+/// The parts no larger than `rule.largest`, joined transitively where
+/// their boxes come within its gap (a sweep along x, then union-find).
+fn shell_groups(parts: &[ScenePart], rule: ShellRule) -> Vec<Vec<usize>> {
+    let mut group: Vec<usize> = (0..parts.len()).collect();
+    let mut by_x: Vec<usize> = (0..parts.len())
+        .filter(|&p| parts[p].radius <= rule.largest)
+        .collect();
     by_x.sort_by(|&a, &b| parts[a].bounds.min.x.total_cmp(&parts[b].bounds.min.x));
     for (k, &a) in by_x.iter().enumerate() {
         let boxed = parts[a].bounds;
         for &b in &by_x[k + 1..] {
             let other = parts[b].bounds;
-            if other.min.x > boxed.max.x {
+            if other.min.x > boxed.max.x + rule.gap {
                 break;
             }
-            let overlap =
-                (0..3).all(|i| other.min[i] <= boxed.max[i] && boxed.min[i] <= other.max[i]);
-            if overlap {
+            if boxed.gap(&other) <= rule.gap {
                 let (ra, rb) = (root(&mut group, a), root(&mut group, b));
                 group[ra.max(rb)] = ra.min(rb);
             }
         }
     }
-    let mut members: Vec<Vec<u32>> = vec![Vec::new(); parts.len()];
-    for i in 0..parts.len() {
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); parts.len()];
+    for &i in &by_x {
         let r = root(&mut group, i);
-        members[r].extend_from_slice(&parts[i].triangles);
+        members[r].push(i);
     }
-    let lists = members
-        .into_iter()
-        .filter(|m| !m.is_empty())
-        .map(|mut triangles| {
-            triangles.sort_unstable();
-            triangles
+    members.into_iter().filter(|m| !m.is_empty()).collect()
+}
+
+/// The part made of each of `lists` (indices into `parts`): one alone keeps
+/// its sphere and box, only joined ones are measured.
+fn joined_parts(
+    mesh: &TriMesh,
+    parts: &[ScenePart],
+    lists: &[Vec<usize>],
+    backend: Threads,
+) -> Vec<ScenePart> {
+    let mut joined_lists = Vec::new();
+    for m in lists.iter().filter(|m| m.len() > 1) {
+        let mut triangles: Vec<u32> = m
+            .iter()
+            .flat_map(|&p| parts[p].triangles.iter().copied())
+            .collect();
+        triangles.sort_unstable();
+        joined_lists.push(triangles);
+    }
+    let mut joined = ScenePart::all(mesh, joined_lists, backend).into_iter();
+    lists
+        .iter()
+        .map(|m| match m[..] {
+            [only] => parts[only].clone(),
+            _ => joined.next().expect("a joined part for each group"),
         })
-        .collect();
-    ScenePart::all(mesh, lists, backend)
+        .collect()
 }

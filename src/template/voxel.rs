@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
 use crate::options::MatchOptions;
-use crate::scene::{Lattice, PartVoxels, Parts, Scene, check_voxel_work, nearest_voxel};
+use crate::scene::{Lattice, PartVoxels, Parts, Scene, ShellRule, check_voxel_work, nearest_voxel};
 use crate::voxel::GridSpec;
 
 /// The anchor of a template of `radius` and `layers` voxelized on `voxels`
@@ -131,7 +131,7 @@ impl VoxelTemplate {
     ///
     /// Scene points are described by their own part: a connected
     /// component for a template of one ([`Parts`]); for one of several
-    /// shells, the components whose boxes overlap.
+    /// shells, the components that may be one copy's shells.
     pub fn new(
         source: &TemplateSource,
         scene: &Scene,
@@ -163,10 +163,16 @@ impl VoxelTemplate {
         let voxel_size = lattice.spec.voxel_size;
         let sphere = bounding_sphere(model);
         check_extent(2.0 * sphere.radius, scene, false)?;
-        let parts = if connected_components(model, scene.backend()).len() == 1 {
+        let shells = connected_components(model, scene.backend());
+        let parts = if shells.len() == 1 {
             Parts::Components
         } else {
-            Parts::OverlappingBoxes
+            Parts::Shells(ShellRule::of_template(
+                model,
+                &shells,
+                sphere.radius,
+                backend,
+            ))
         };
         let spec = GridSpec::around(model.bounds(), voxel_size)?;
         check_model_fits(model, &sphere, &spec, scene, lattice)?;
@@ -188,9 +194,12 @@ impl VoxelTemplate {
             .fold(0.0, f64::max);
         let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
         // Where c_T's descriptors drift, a copy lost at the anchor chosen
-        // instead may be found at another.
+        // instead may be found at another. So too where the template has
+        // several shells: c_T, nearest the middle, lies where they meet or
+        // face each other, where an assembly's joining parts sit (the pin
+        // through a knee, the axle between two wheels).
         let mut anchors = vec![anchor.voxel];
-        if !anchor.steady {
+        if !anchor.steady || parts != Parts::Components {
             anchors.extend(further_anchors(
                 model,
                 &voxels,
@@ -244,7 +253,7 @@ impl VoxelTemplate {
                 lattice.resolution
             )
         })?;
-        let selected = &scene.parts(Parts::Components)[part];
+        let selected = &scene.parts()[part];
         let whole_part = scene.fits_one_grid(selected, lattice, radius / voxel_size);
         let voxels = if whole_part {
             scene.voxelize_part(selected, lattice, radius / voxel_size, &held)?

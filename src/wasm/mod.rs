@@ -26,7 +26,7 @@ use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_within};
-use crate::scene::{Parts, Scene, SceneOptions};
+use crate::scene::{Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
 
@@ -238,7 +238,7 @@ impl SceneHandle {
     /// alone.
     #[wasm_bindgen(getter)]
     pub fn parts(&self) -> usize {
-        self.scene.parts(Parts::Components).len()
+        self.scene.parts().len()
     }
 
     /// Triangles of the scene's mesh.

@@ -26,9 +26,9 @@ use crate::cascade::Observer;
 use crate::clock::now_ms;
 use crate::descriptor::LayerDevice;
 use crate::error::Result;
-use crate::instances::best_first;
+use crate::instances::{best_first, merge_duplicates, refuse_near_twins};
 use crate::options::MatchOptions;
-use crate::scene::Scene;
+use crate::scene::{Parts, Scene};
 use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
 use congruent_parts::congruent_parts;
@@ -49,7 +49,8 @@ pub(super) async fn search_voxels(
 ) -> Result<MatchReport> {
     let t0 = now_ms();
     let searcher = PartSearch::new(scene, source, options)?;
-    let parts = searcher.searched_parts()?;
+    let all_parts = scene.parts_for(searcher.template.parts());
+    let parts = searcher.searched_parts(&all_parts)?;
     let template_ms = now_ms() - t0;
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
@@ -76,9 +77,25 @@ pub(super) async fn search_voxels(
             (None, None) => {}
         }
     }
+    let (template, lattice) = (&searcher.template, &searcher.lattice);
+    if matches!(template.parts(), Parts::Shells(_)) {
+        // A shell inside a larger part is searched with it and alone.
+        found.instances = merge_duplicates(
+            std::mem::take(&mut found.instances),
+            options.group_radius * template.radius(),
+        );
+    }
+    if !options.keep_near_twins {
+        let in_scene = matches!(source, TemplateSource::Selection { .. });
+        refuse_near_twins(
+            &mut found.instances,
+            template.center(),
+            template.radius(),
+            in_scene,
+        );
+    }
     // Best first over all parts, as within one.
     found.instances.sort_by(best_first);
-    let (template, lattice) = (&searcher.template, &searcher.lattice);
     Ok(MatchReport {
         template: TemplateInfo::of(template.center(), template.radius()),
         instances: found.instances,

@@ -32,10 +32,12 @@ impl<'a> PartSearch<'a> {
     /// The scene's parts large enough to hold a copy, with their indices;
     /// fails when voxelizing them one by one would take far more than the
     /// scene's own grid.
-    pub(super) fn searched_parts(&self) -> Result<Vec<(usize, &'a ScenePart)>> {
+    pub(super) fn searched_parts<'p>(
+        &self,
+        all: &'p [ScenePart],
+    ) -> Result<Vec<(usize, &'p ScenePart)>> {
         let scene: &'a Scene = self.scene;
-        let parts: Vec<(usize, &ScenePart)> = scene
-            .parts(self.template.parts())
+        let parts: Vec<(usize, &ScenePart)> = all
             .iter()
             .enumerate()
             .filter(|(_, part)| part.radius() >= self.template.min_part_radius())

@@ -174,7 +174,7 @@ fn anchor_gap(scene: &Scene, source: &TemplateSource, template: &VoxelTemplate) 
             let mesh = scene.mesh();
             template_gap(
                 &anchor_points,
-                scene.parts(Parts::Components)[part]
+                scene.parts()[part]
                     .triangles()
                     .iter()
                     .flat_map(|&t| mesh.corners(t as usize)),
@@ -194,7 +194,7 @@ fn template_surface(source: &TemplateSource, scene: &Scene, template: &VoxelTemp
                 .scene_part()
                 .expect("a selection lies on a scene part");
             let mesh = scene.mesh();
-            let near: Vec<u32> = scene.parts(Parts::Components)[part]
+            let near: Vec<u32> = scene.parts()[part]
                 .triangles()
                 .iter()
                 .copied()

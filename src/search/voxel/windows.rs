@@ -273,14 +273,13 @@ mod tests {
     use super::*;
     use crate::SceneOptions;
     use crate::mesh::shapes::cuboid;
-    use crate::scene::Parts;
 
     #[test]
     fn the_cores_of_a_large_parts_windows_tile_its_voxels_once() {
         let slab = cuboid(Vec3::new(-50.0, -40.0, -0.3), Vec3::new(50.0, 40.0, 0.0));
         let scene = Scene::new(slab, &SceneOptions::DEFAULT).unwrap();
         let lattice = scene.lattice_for(0.1, 32.0).unwrap();
-        let part = &scene.parts(Parts::Components)[0];
+        let part = &scene.parts()[0];
         let reach = 0.1 / lattice.spec.voxel_size;
         let windows = part_windows(&scene, part, &lattice, reach, None)
             .unwrap()
@@ -315,7 +314,7 @@ mod tests {
         let small =
             Scene::new(cuboid(Vec3::ZERO, Vec3::splat(1.0)), &SceneOptions::DEFAULT).unwrap();
         let lattice = small.lattice_for(0.1, 32.0).unwrap();
-        let part = &small.parts(Parts::Components)[0];
+        let part = &small.parts()[0];
         assert!(
             part_windows(&small, part, &lattice, 32.0, None)
                 .unwrap()

@@ -1,0 +1,90 @@
+//! A template of several shells that stand apart (a wheel pair, a knee and
+//! its pin): its copies are gathered from the scene's components that may
+//! be their shells, whatever else they touch, and where the scene holds
+//! exact copies a near twin (one shell a little larger) is refused unless
+//! asked for.
+//!
+//! The template is a rocker arm with a ball beside it, apart from it. The
+//! scene holds two copies alone, two standing on a wide plate that touches
+//! both shells, and a near twin whose ball is 12% larger.
+
+mod common;
+
+use fast_reject::math::Vec3;
+use fast_reject::mesh::shapes::{cuboid, uv_sphere};
+use fast_reject::{
+    MatchOptions, MatchReport, Scene, SceneOptions, TemplateSource, TriMesh, search,
+};
+use glam::DQuat;
+
+/// The rocker arm of radius 0.3 with a ball of `ball` radius apart from it.
+fn arm_and_ball(ball: f64) -> TriMesh {
+    let mut mesh = common::scaled_model("rocker-arm.obj", 0.3);
+    let b = mesh.bounds();
+    let centre = Vec3::new(b.max.x + 0.06 + ball, b.center().y, b.center().z);
+    mesh.append(&uv_sphere(centre, ball, 12, 24));
+    mesh
+}
+
+/// `mesh` turned by `turn` and moved by `shift`.
+fn placed(mesh: &TriMesh, turn: DQuat, shift: Vec3) -> TriMesh {
+    mesh.map_positions(|p| turn * p + shift).unwrap()
+}
+
+/// Where each exact copy's template point lies, and the report.
+fn search_scene(options: &MatchOptions) -> (Vec<Vec3>, Vec3, MatchReport) {
+    let template = arm_and_ball(0.08);
+    let twin = arm_and_ball(0.09);
+    let copies = [
+        (DQuat::from_rotation_z(0.4), Vec3::new(2.0, 0.0, 0.0)),
+        (
+            DQuat::from_euler(glam::EulerRot::XYZ, 0.3, 1.1, -0.5),
+            Vec3::new(0.0, 2.0, 0.5),
+        ),
+        (DQuat::from_rotation_z(-1.2), Vec3::new(6.0, 0.0, 0.0)),
+        (DQuat::from_rotation_z(2.0), Vec3::new(6.0, 2.0, 0.0)),
+    ];
+    let twin_place = (DQuat::from_rotation_z(0.9), Vec3::new(2.0, 4.0, 0.0));
+    let mut scene = placed(&template, copies[0].0, copies[0].1);
+    for &(turn, shift) in &copies[1..] {
+        scene.append(&placed(&template, turn, shift));
+    }
+    scene.append(&placed(&twin, twin_place.0, twin_place.1));
+    // A plate wider than the template, touching the last two copies'
+    // shells from below.
+    let lowest = |turn: DQuat, shift: Vec3| placed(&template, turn, shift).bounds().min.z;
+    let floor = lowest(copies[2].0, copies[2].1).max(lowest(copies[3].0, copies[3].1));
+    scene.append(&cuboid(
+        Vec3::new(4.5, -1.0, floor - 0.1),
+        Vec3::new(7.5, 3.0, floor + 0.02),
+    ));
+    let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
+    let report = search(&scene, &TemplateSource::Model(template), options, &mut ()).unwrap();
+    let c = Vec3::from_array(report.template.center);
+    let at = copies
+        .iter()
+        .map(|&(turn, shift)| turn * c + shift)
+        .collect();
+    (at, twin_place.0 * c + twin_place.1, report)
+}
+
+#[test]
+fn shells_apart_are_found_together_and_the_near_twin_is_refused() {
+    let (copies, _, report) = search_scene(&MatchOptions::DEFAULT);
+    common::assert_found_exactly(&report, &copies, 0.02);
+    let exact = report.instances.iter().filter_map(|i| i.residual);
+    assert!(
+        exact.clone().all(|r| r < 1e-4),
+        "{:?}",
+        exact.collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn near_twins_are_kept_when_asked_for() {
+    let mut options = MatchOptions::DEFAULT;
+    options.keep_near_twins = true;
+    let (mut copies, twin, report) = search_scene(&options);
+    copies.push(twin);
+    common::assert_found_exactly(&report, &copies, 0.02);
+}
