@@ -91,6 +91,8 @@ pub struct ShellRule {
     pub largest: f64,
     /// Boxes at most this far apart are joined.
     pub gap: f64,
+    /// A part smaller than this cannot hold a copy alone.
+    pub holds: f64,
 }
 
 /// A copy's shell may be this much larger than the template's: meshing and
@@ -103,11 +105,13 @@ const GAP_PAIRS: usize = 1 << 22;
 impl ShellRule {
     /// The rule for a template `mesh` of bounding radius `radius` made of
     /// `shells` (triangle lists): its largest shell, and the widest step
-    /// that links them all (single linkage over their nearest points).
+    /// that links them all (single linkage over their nearest points);
+    /// `holds` is the smallest part that can hold a copy.
     pub fn of_template(
         mesh: &TriMesh,
         shells: &[Vec<u32>],
         radius: f64,
+        holds: f64,
         backend: Threads,
     ) -> ShellRule {
         let largest = ScenePart::all(mesh, shells.to_vec(), backend)
@@ -164,6 +168,7 @@ impl ShellRule {
             largest: SHELL_RADIUS_SLACK * largest,
             // Rounding of the copy's own positions.
             gap: gap + 1e-6 * radius,
+            holds,
         }
     }
 }
@@ -186,35 +191,28 @@ pub(super) fn join_shells(
     backend: Threads,
 ) -> Vec<ScenePart> {
     let shells = shell_groups(parts, rule);
+    let mut joined = joined_parts(mesh, parts, &shells, backend);
     // A larger part may still hold a copy's shell inside it (a block that
     // runs on below, the paper's part-in-whole): it is searched with the
-    // groups its box meets, as well as they are alone.
-    let boxes: Vec<Aabb> = shells
-        .iter()
-        .map(|m| {
-            m.iter()
-                .map(|&p| parts[p].bounds)
-                .reduce(Aabb::union)
-                .expect("a member")
-        })
-        .collect();
-    let mut lists = shells.clone();
+    // groups its box meets that cannot hold a copy alone. Those that can
+    // are searched alone: a knee is not searched again with its thigh.
+    let mut lists = Vec::new();
     for (l, part) in parts
         .iter()
         .enumerate()
         .filter(|(_, p)| p.radius > rule.largest)
     {
         let mut with = vec![l];
-        for (m, b) in shells.iter().zip(&boxes) {
-            if b.overlaps(&part.bounds) {
+        for (m, group) in shells.iter().zip(&joined) {
+            if group.radius < rule.holds && group.bounds.overlaps(&part.bounds) {
                 with.extend_from_slice(m);
             }
         }
         lists.push(with);
     }
-    let first = |m: &Vec<usize>| m.iter().map(|&p| parts[p].triangles[0]).min();
-    lists.sort_by_key(|m| (first(m), m.len()));
-    joined_parts(mesh, parts, &lists, backend)
+    joined.extend(joined_parts(mesh, parts, &lists, backend));
+    joined.sort_by_key(|p| (p.triangles[0], p.triangles.len()));
+    joined
 }
 
 /// The parts no larger than `rule.largest`, joined transitively where

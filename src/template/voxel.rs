@@ -171,6 +171,7 @@ impl VoxelTemplate {
                 model,
                 &shells,
                 sphere.radius,
+                PART_RADIUS_SLACK * sphere.radius,
                 backend,
             ))
         };
