@@ -102,6 +102,11 @@ const SHELL_RADIUS_SLACK: f64 = 1.05;
 /// At most this many point pairs are measured between a template's shells.
 const GAP_PAIRS: usize = 1 << 22;
 
+/// The gap between the shells of a template of more is not measured: its
+/// diameter bounds it (every pair of shells is measured, so the work grows
+/// as the square of their number).
+const MEASURED_SHELLS: usize = 64;
+
 impl ShellRule {
     /// The rule for a template `mesh` of bounding radius `radius` made of
     /// `shells` (triangle lists): its largest shell, and the widest step
@@ -118,6 +123,15 @@ impl ShellRule {
             .iter()
             .map(ScenePart::radius)
             .fold(0.0, f64::max);
+        let rule = |gap: f64| ShellRule {
+            largest: SHELL_RADIUS_SLACK * largest,
+            // Rounding of the copy's own positions.
+            gap: gap + 1e-6 * radius,
+            holds,
+        };
+        if shells.len() > MEASURED_SHELLS {
+            return rule(2.0 * radius);
+        }
         let pair_count = shells.len() * shells.len().saturating_sub(1) / 2;
         // Points spread over each shell: the nearest pair among them is a
         // real pair, so the gap measured is never too small.
@@ -164,12 +178,7 @@ impl ShellRule {
                 gap = gap.max(distance);
             }
         }
-        ShellRule {
-            largest: SHELL_RADIUS_SLACK * largest,
-            // Rounding of the copy's own positions.
-            gap: gap + 1e-6 * radius,
-            holds,
-        }
+        rule(gap)
     }
 }
 
@@ -269,4 +278,55 @@ fn joined_parts(
             _ => joined.next().expect("a joined part for each group"),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::connected_components;
+    use crate::mesh::shapes::cuboid;
+
+    fn rule_of(mesh: &TriMesh) -> ShellRule {
+        let shells = connected_components(mesh, Threads::Serial);
+        let radius = minimal_bounding_sphere(
+            &mesh
+                .positions()
+                .iter()
+                .map(|&p| crate::math::from_f32(p))
+                .collect::<Vec<_>>(),
+        )
+        .unwrap()
+        .radius;
+        ShellRule::of_template(mesh, &shells, radius, 0.8 * radius, Threads::Serial)
+    }
+
+    #[test]
+    fn the_gap_is_the_widest_step_between_shells_and_the_largest_is_a_shell() {
+        // Three unit cubes in a row, 0.5 and then 2 apart: the widest step
+        // that links them is 2, and no shell is larger than a cube.
+        let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE);
+        mesh.append(&cuboid(Vec3::new(1.5, 0.0, 0.0), Vec3::new(2.5, 1.0, 1.0)));
+        mesh.append(&cuboid(Vec3::new(4.5, 0.0, 0.0), Vec3::new(5.5, 1.0, 1.0)));
+        let rule = rule_of(&mesh);
+        assert!((rule.gap - 2.0).abs() < 1e-4, "{rule:?}");
+        assert!(
+            (rule.largest - 1.05 * 3f64.sqrt() / 2.0).abs() < 1e-6,
+            "{rule:?}"
+        );
+    }
+
+    #[test]
+    fn a_template_of_many_shells_is_bounded_by_its_diameter() {
+        let mut mesh = cuboid(Vec3::ZERO, Vec3::splat(0.1));
+        for i in 1..200 {
+            let x = f64::from(i) * 0.2;
+            mesh.append(&cuboid(
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 0.1, 0.1, 0.1),
+            ));
+        }
+        let rule = rule_of(&mesh);
+        let span = 199.0 * 0.2 + 0.1;
+        assert!(rule.gap >= 0.1 && rule.gap <= span * 1.01, "{rule:?}");
+    }
 }
