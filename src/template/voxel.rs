@@ -195,12 +195,9 @@ impl VoxelTemplate {
             .fold(0.0, f64::max);
         let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
         // Where c_T's descriptors drift, a copy lost at the anchor chosen
-        // instead may be found at another. So too where the template has
-        // several shells: c_T, nearest the middle, lies where they meet or
-        // face each other, where an assembly's joining parts sit (the pin
-        // through a knee, the axle between two wheels).
+        // instead may be found at another.
         let mut anchors = vec![anchor.voxel];
-        if !anchor.steady || parts != Parts::Components {
+        if !anchor.steady {
             anchors.extend(further_anchors(
                 model,
                 &voxels,
