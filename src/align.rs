@@ -219,6 +219,12 @@ impl<'a> SurfaceIndex<'a> {
         bounds: Aabb,
         cell: f64,
     ) -> SurfaceIndex<'a> {
+        // A few triangles are tested one by one: walking cells costs more.
+        let cell = if triangles.len() <= FEW_TRIANGLES {
+            cell.max(bounds.extent().max_element())
+        } else {
+            cell
+        };
         let dims = (bounds.extent() / cell)
             .ceil()
             .max(Vec3::ONE)
@@ -320,6 +326,11 @@ impl<'a> SurfaceIndex<'a> {
         let rings = (reach / self.cell).ceil() as i64 + 1;
         let mut best: Option<(Vec3, usize)> = None;
         let mut bound = reach;
+        // A triangle is listed in every cell its box meets, so a large one
+        // (a part of a few triangles) would be tested again in each cell of
+        // every ring. The first few tested are remembered and skipped.
+        let mut tested = [0u32; TESTED_MEMORY];
+        let mut remembered = 0usize;
         // Ring by ring outwards: past ring k, everything is at least k
         // cells away.
         for k in 0..=rings {
@@ -340,11 +351,18 @@ impl<'a> SurfaceIndex<'a> {
                         for &t in
                             &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
                         {
+                            if tested[..remembered].contains(&t) {
+                                continue;
+                            }
                             let (centre, radius) = self.spheres[t as usize];
                             let centre =
                                 Vec3::new(centre[0] as f64, centre[1] as f64, centre[2] as f64);
                             if p.distance(centre) - radius as f64 > bound {
                                 continue;
+                            }
+                            if remembered < TESTED_MEMORY {
+                                tested[remembered] = t;
+                                remembered += 1;
                             }
                             let [a, b, cc] = self.mesh.corners(self.triangles[t as usize] as usize);
                             let q = closest_point_on_triangle(p, a, b, cc, t as usize);
@@ -363,6 +381,13 @@ impl<'a> SurfaceIndex<'a> {
         best.map(|(q, t)| (q, t, bound))
     }
 }
+
+/// An index of at most this many triangles is one cell.
+const FEW_TRIANGLES: usize = 16;
+
+/// How many tested triangles a closest-point query remembers: enough for
+/// a small part's, few enough that looking them up costs less than a test.
+const TESTED_MEMORY: usize = 16;
 
 /// The outcome of an alignment.
 #[derive(Clone, Copy, Debug)]
@@ -701,6 +726,49 @@ mod tests {
         ((e.x_axis.x + e.y_axis.y + e.z_axis.z - 1.0) / 2.0)
             .clamp(-1.0, 1.0)
             .acos()
+    }
+
+    /// The closest point found through the cells is the closest of all
+    /// triangles, whether the index is one cell (a box of 12 triangles,
+    /// each tested once) or many (a sphere of 960), at every distance.
+    #[test]
+    fn the_nearest_triangle_is_the_closest_of_all() {
+        for mesh in [
+            cuboid(Vec3::ZERO, Vec3::new(4.0, 1.0, 2.0)),
+            crate::mesh::shapes::uv_sphere(Vec3::new(2.0, 0.5, 1.0), 1.5, 16, 32),
+        ] {
+            let index = index(&mesh, 0.1);
+            let mut seed = 7u64;
+            let mut random = || {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for _ in 0..500 {
+                let p = Vec3::new(
+                    random() * 5.0 - 0.5,
+                    random() * 2.0 - 0.5,
+                    random() * 3.0 - 0.5,
+                );
+                let exact = corners(&mesh)
+                    .iter()
+                    .enumerate()
+                    .map(|(t, [a, b, c])| closest_point_on_triangle(p, *a, *b, *c, t).distance2)
+                    .fold(f64::INFINITY, f64::min)
+                    .sqrt();
+                let found = index.nearest_triangle(p, 0.4).map(|n| n.2);
+                if exact <= 0.4 {
+                    let found = found.expect("a triangle within reach");
+                    assert!(
+                        (found - exact).abs() < 1e-12,
+                        "{found} against {exact} at {p}"
+                    );
+                } else {
+                    assert!(found.is_none(), "nothing within reach of {p}");
+                }
+            }
+        }
     }
 
     /// An asymmetric block (an L of two boxes) placed by a known pose is
