@@ -421,6 +421,7 @@ function searchOptions() {
     if ($(id).value !== '' && Number.isFinite(value)) options[key] = value;
   }
   if ($('whole-copies').checked && options.descriptor !== 'curvature') options.wholeCopies = true;
+  if ($('keep-near-twins').checked && options.descriptor !== 'curvature') options.keepNearTwins = true;
   return options;
 }
 
@@ -434,6 +435,8 @@ function showThresholds() {
   $('resolution').disabled = descriptor() === 'curvature';
   // The curvature search finds no pose, so it cannot tell a whole copy.
   $('whole-copies').disabled = descriptor() === 'curvature';
+  // Near twins are told by the meshes' fit at the pose, which it lacks too.
+  $('keep-near-twins').disabled = descriptor() === 'curvature';
 }
 
 async function runSearch() {
@@ -569,7 +572,7 @@ $('descriptor').addEventListener('change', () => {
   showThresholds();
   rerunSoon();
 });
-for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing', 'whole-copies']) {
+for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing', 'whole-copies', 'keep-near-twins']) {
   $(id).addEventListener('change', rerunSoon);
 }
 
@@ -764,6 +767,10 @@ globalThis.viewer = {
   get report() {
     return state.report;
   },
+  /** The options the last search was started with. */
+  get options() {
+    return state.lastOptions ?? null;
+  },
   /** The last search's progress as last reported: `{step, done, total}`, or null. */
   get progress() {
     return state.progress;
@@ -792,6 +799,10 @@ globalThis.viewer = {
   /** The camera's distance to the point it orbits (tests check fit and focus with it). */
   get cameraDistance() {
     return view.distanceToTarget();
+  },
+  /** Whether the camera is still on its way to a double-clicked point. */
+  get flying() {
+    return view.flying;
   },
   /** Each match's part name, as the list shows it. */
   get names() {

@@ -400,6 +400,11 @@ export class View {
     this.requestRender();
   }
 
+  /** Whether the camera is still flying to a point. */
+  get flying() {
+    return this.#flight !== null;
+  }
+
   requestRender() {
     if (this.#frameRequested) return;
     this.#frameRequested = true;

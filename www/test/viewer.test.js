@@ -245,6 +245,7 @@ test('viewer: curvature on twisted-homer, over every vertex and with the sampled
     assert.ok(await page.locator('#curvature-spacing').isVisible(), 'the sampling input shows with curvature');
     // No pose, so no whole copies: the box is off, and a check left on is not sent.
     assert.ok(await page.locator('#whole-copies').isDisabled(), 'whole copies is off with curvature');
+    assert.ok(await page.locator('#keep-near-twins').isDisabled(), 'keep near twins is off with curvature');
     await page.setInputFiles('#template-input', resolve(twistedHomer, 'template.glb'));
     await waitForStatus(page, 'done');
     const every = await page.evaluate(() => globalThis.viewer.report);
@@ -425,6 +426,16 @@ test('viewer: clicks — model mode keeps its template, an early click picks wha
     await page.click('#search-button');
     await waitForStatus(page, 'done');
     assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
+    assert.equal((await page.evaluate(() => globalThis.viewer.options)).keepNearTwins, undefined);
+    // Keeping near twins searches again with the option; the demo's mugs
+    // are exact, so the same three are found.
+    await page.check('#keep-near-twins');
+    await page.waitForFunction(() => globalThis.viewer.options?.keepNearTwins === true, null, { timeout: 30_000 });
+    await waitForStatus(page, 'done');
+    assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
+    await page.uncheck('#keep-near-twins');
+    await page.waitForFunction(() => globalThis.viewer.options?.keepNearTwins === undefined, null, { timeout: 30_000 });
+    await waitForStatus(page, 'done');
 
     // Selection mode, and clicks on the bunnies of zoo-bunny once the page
     // has settled. The mouse hints say what a click does there.
@@ -480,7 +491,9 @@ test('viewer: clicks — model mode keeps its template, an early click picks wha
     const { x, y } = await page.evaluate((p) => globalThis.viewer.project(p), bunnies[0]);
     const distance = await page.evaluate(() => globalThis.viewer.cameraDistance);
     await page.mouse.dblclick(x, y);
+    // The flight takes 700 ms of frames, and a loaded machine draws few.
     await page.waitForTimeout(900);
+    await page.waitForFunction(() => !globalThis.viewer.flying, null, { timeout: 30_000 });
     assert.deepEqual(await page.evaluate(() => globalThis.viewer.selection), placed);
     assert.ok(Math.abs((await page.evaluate(() => globalThis.viewer.cameraDistance)) - distance) < distance * 1e-3);
     assert.ok(await page.locator('#results-stale').isHidden());
