@@ -751,12 +751,7 @@ mod tests {
                     random() * 2.0 - 0.5,
                     random() * 3.0 - 0.5,
                 );
-                let exact = corners(&mesh)
-                    .iter()
-                    .enumerate()
-                    .map(|(t, [a, b, c])| closest_point_on_triangle(p, *a, *b, *c, t).distance2)
-                    .fold(f64::INFINITY, f64::min)
-                    .sqrt();
+                let exact = mesh.closest_point(p).distance2.sqrt();
                 let found = index.nearest_triangle(p, 0.4).map(|n| n.2);
                 if exact <= 0.4 {
                     let found = found.expect("a triangle within reach");

@@ -408,6 +408,9 @@ function applyDefaults(defaults) {
   showThresholds();
 }
 
+/** Boxes that judge an instance by its pose, which the curvature search does not find. */
+const POSE_OPTIONS = { wholeCopies: 'whole-copies', keepNearTwins: 'keep-near-twins' };
+
 function searchOptions() {
   const options = { descriptor: descriptor(), resolution: Number($('resolution').value) };
   const thresholds = {
@@ -420,8 +423,9 @@ function searchOptions() {
     const value = Number($(id).value);
     if ($(id).value !== '' && Number.isFinite(value)) options[key] = value;
   }
-  if ($('whole-copies').checked && options.descriptor !== 'curvature') options.wholeCopies = true;
-  if ($('keep-near-twins').checked && options.descriptor !== 'curvature') options.keepNearTwins = true;
+  if (options.descriptor !== 'curvature') {
+    for (const [key, id] of Object.entries(POSE_OPTIONS)) if ($(id).checked) options[key] = true;
+  }
   return options;
 }
 
@@ -433,10 +437,8 @@ function showThresholds() {
     else element.dataset.hidden = '';
   }
   $('resolution').disabled = descriptor() === 'curvature';
-  // The curvature search finds no pose, so it cannot tell a whole copy.
-  $('whole-copies').disabled = descriptor() === 'curvature';
-  // Near twins are told by the meshes' fit at the pose, which it lacks too.
-  $('keep-near-twins').disabled = descriptor() === 'curvature';
+  // The curvature search finds no pose: no whole copy, no near twin.
+  for (const id of Object.values(POSE_OPTIONS)) $(id).disabled = descriptor() === 'curvature';
 }
 
 async function runSearch() {
@@ -572,7 +574,7 @@ $('descriptor').addEventListener('change', () => {
   showThresholds();
   rerunSoon();
 });
-for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing', 'whole-copies', 'keep-near-twins']) {
+for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curvature-threshold', 'curvature-spacing', ...Object.values(POSE_OPTIONS)]) {
   $(id).addEventListener('change', rerunSoon);
 }
 
