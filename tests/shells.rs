@@ -88,3 +88,45 @@ fn near_twins_are_kept_when_asked_for() {
     copies.push(twin);
     common::assert_found_exactly(&report, &copies, 0.02);
 }
+
+#[test]
+fn a_copy_whose_centre_is_buried_is_found_at_a_further_anchor() {
+    // A small ball sits on one copy at c_T, as a pin or a neighbour's boss
+    // would: the copy's part gathers it, and its inner layers read the
+    // ball's volume, which no rule excuses. The copy is still found, at an
+    // anchor away from c_T.
+    let template = arm_and_ball(0.08);
+    let alone = Scene::new(template.clone(), &SceneOptions::DEFAULT).unwrap();
+    let own = search(
+        &alone,
+        &TemplateSource::Model(template.clone()),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let c = Vec3::from_array(own.template.center);
+    let copies = [
+        (DQuat::from_rotation_z(0.7), Vec3::new(0.0, 0.0, 0.0)),
+        (
+            DQuat::from_euler(glam::EulerRot::XYZ, -0.4, 0.8, 0.2),
+            Vec3::new(3.0, 0.0, 0.0),
+        ),
+    ];
+    let mut scene = placed(&template, copies[0].0, copies[0].1);
+    scene.append(&placed(&template, copies[1].0, copies[1].1));
+    let buried = copies[1].0 * c + copies[1].1;
+    scene.append(&uv_sphere(buried, 0.05, 12, 24));
+    let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
+    let report = search(
+        &scene,
+        &TemplateSource::Model(template),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let at: Vec<Vec3> = copies
+        .iter()
+        .map(|&(turn, shift)| turn * c + shift)
+        .collect();
+    common::assert_found_exactly(&report, &at, 0.02);
+}

@@ -14,6 +14,8 @@ pub struct ScenePart {
     triangles: Vec<u32>,
     radius: f64,
     bounds: Aabb,
+    /// How many connected components it joins.
+    components: usize,
 }
 
 impl ScenePart {
@@ -28,6 +30,7 @@ impl ScenePart {
                 triangles,
                 radius,
                 bounds,
+                components: 1,
             })
             .collect()
     }
@@ -63,6 +66,12 @@ impl ScenePart {
     /// Its bounding box.
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// How many connected components it joins: one, but for a template of
+    /// several shells.
+    pub fn components(&self) -> usize {
+        self.components
     }
 }
 
@@ -275,7 +284,10 @@ fn joined_parts(
         .iter()
         .map(|m| match m[..] {
             [only] => parts[only].clone(),
-            _ => joined.next().expect("a joined part for each group"),
+            _ => ScenePart {
+                components: m.iter().map(|&p| parts[p].components).sum(),
+                ..joined.next().expect("a joined part for each group")
+            },
         })
         .collect()
 }

@@ -7,6 +7,7 @@ use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
 use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
+use crate::descriptor::{Anchors, all_anchors};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
 use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
@@ -118,6 +119,9 @@ pub struct VoxelTemplate {
     min_part_radius: f64,
     /// The voxels its descriptors are read at, the primary first.
     anchors: Vec<[u16; 3]>,
+    /// How many of `anchors` every candidate is read at; the rest only
+    /// where no copy was found.
+    first_anchors: usize,
     candidate_spacing: u32,
 }
 
@@ -195,9 +199,14 @@ impl VoxelTemplate {
             .fold(0.0, f64::max);
         let anchor = choose_anchor(Some(model), &voxels, nearest, radius, layers, options)?;
         // Where c_T's descriptors drift, a copy lost at the anchor chosen
-        // instead may be found at another.
+        // instead may be found at another: every candidate is read at all
+        // of them. A copy of several shells is a part gathered with the
+        // components near it, which may bury a steady anchor (the pin of
+        // a knee between its thigh and shin): the further anchors are read
+        // again where no copy was found.
         let mut anchors = vec![anchor.voxel];
-        if !anchor.steady {
+        let first_anchors = if anchor.steady { 1 } else { usize::MAX };
+        if !anchor.steady || parts != Parts::Components {
             anchors.extend(further_anchors(
                 model,
                 &voxels,
@@ -217,6 +226,7 @@ impl VoxelTemplate {
             whole_part: false,
             parts,
             min_part_radius: PART_RADIUS_SLACK * sphere.radius,
+            first_anchors: first_anchors.min(anchors.len()),
             anchors,
             candidate_spacing: candidate_spacing(&anchor, options),
         })
@@ -292,6 +302,7 @@ impl VoxelTemplate {
             // One anchor: another, away from c_T, would read beyond the
             // sphere, material the selection did not take.
             anchors: vec![anchor.voxel],
+            first_anchors: 1,
             candidate_spacing: candidate_spacing(&anchor, options),
         })
     }
@@ -352,6 +363,19 @@ impl VoxelTemplate {
     /// of them matches.
     pub fn anchors(&self) -> &[[u16; 3]] {
         &self.anchors
+    }
+
+    /// The anchors every candidate is read at: all of them where c_T's
+    /// descriptors drift, else the primary alone.
+    pub fn first_anchors(&self) -> Anchors {
+        all_anchors(self.first_anchors)
+    }
+
+    /// The anchors read again at the candidates that no copy found at
+    /// [`VoxelTemplate::first_anchors`] explains: a steady template of
+    /// several shells' further anchors, else none.
+    pub fn fallback_anchors(&self) -> Anchors {
+        all_anchors(self.anchors.len()) & !self.first_anchors()
     }
 
     /// One candidate per cube of this many voxels: the option's, or 1

@@ -11,9 +11,10 @@ use crate::budget::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
-use crate::descriptor::{HarmonicsDescriptor, LayerBatch, VolumeDescriptor, all_anchors};
+use crate::descriptor::{Anchors, HarmonicsDescriptor, LayerBatch, VolumeDescriptor};
 use crate::error::Result;
 use crate::instances::Instance;
+use crate::math::Vec3;
 use crate::options::DescriptorKind;
 use crate::scene::{PartVoxels, ScenePart};
 use crate::voxel::spaced;
@@ -35,8 +36,18 @@ impl PartSearch<'_> {
             // No copy can be anchored here (a slab's plain faces).
             return Ok(Vec::new());
         }
+        // A part joined from several components may hold a neighbour
+        // against a copy's c_T: its candidates are kept for the further
+        // anchors.
+        let fallback = match part.components() {
+            1 => 0,
+            _ => self.template.fallback_anchors(),
+        };
         let mut estimate = runner.held.clone();
         estimate.add("candidate state", candidate_bytes(candidates.len()));
+        if fallback != 0 {
+            estimate.add("candidates kept", 4 * candidates.len() as u64);
+        }
         if let Some(near) = near {
             estimate.add("cells near vertices", near.bytes());
         }
@@ -47,7 +58,73 @@ impl PartSearch<'_> {
                 self.lattice.resolution
             )
         })?;
-        let (survivors, stats) = self.cascade(voxels, candidates, found, runner).await?;
+        let kept = match fallback {
+            0 => Vec::new(),
+            _ => candidates.clone(),
+        };
+        let first = self.template.first_anchors();
+        let mut instances = self
+            .read_and_place(part, voxels, candidates, first, found, runner)
+            .await?;
+        if fallback != 0 {
+            let more = self
+                .read_again(part, voxels, kept, &instances, fallback, found, runner)
+                .await?;
+            instances.extend(more);
+        }
+        Ok(instances)
+    }
+
+    /// A copy whose primary anchor is buried (a neighbour gathered with its
+    /// shells, against it): `candidates` that none of `instances` explains
+    /// (none lies within the group radius) read at the `further` anchors,
+    /// and the new copies this finds.
+    #[allow(clippy::too_many_arguments)]
+    async fn read_again(
+        &self,
+        part: &ScenePart,
+        voxels: &PartVoxels,
+        candidates: Vec<u32>,
+        instances: &[Instance],
+        further: Anchors,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Vec<Instance>> {
+        let reach = self.options.group_radius * self.template.radius();
+        let unexplained = |p: Vec3| {
+            instances
+                .iter()
+                .all(|i| Vec3::from_array(i.position).distance(p) > reach)
+        };
+        let candidates: Vec<u32> = candidates
+            .into_iter()
+            .filter(|&c| unexplained(voxels.position(c)))
+            .collect();
+        if candidates.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut more = self
+            .read_and_place(part, voxels, candidates, further, found, runner)
+            .await?;
+        // A copy found at c_T, seen again from an anchor beyond the reach.
+        more.retain(|i| unexplained(Vec3::from_array(i.position)));
+        Ok(more)
+    }
+
+    /// The cascade over `candidates` at `anchors`, its survivors verified
+    /// and placed.
+    async fn read_and_place(
+        &self,
+        part: &ScenePart,
+        voxels: &PartVoxels,
+        candidates: Vec<u32>,
+        anchors: Anchors,
+        found: &mut Found,
+        runner: &mut Runner<'_, '_>,
+    ) -> Result<Vec<Instance>> {
+        let (survivors, stats) = self
+            .cascade(voxels, candidates, anchors, found, runner)
+            .await?;
         let started = now_ms();
         let verified = self.verify(voxels, &survivors);
         let instances = self.place(part, voxels, &verified, &survivors);
@@ -87,6 +164,7 @@ impl PartSearch<'_> {
         &self,
         voxels: &PartVoxels,
         candidates: Vec<u32>,
+        anchors: Anchors,
         found: &mut Found,
         runner: &mut Runner<'_, '_>,
     ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
@@ -142,7 +220,7 @@ impl PartSearch<'_> {
         let outcome = run_cascade(
             &stages,
             candidates,
-            all_anchors(self.verifiers.len()),
+            anchors,
             backend,
             batch.as_deref(),
             &mut SharedObserver(runner.observer),
