@@ -120,6 +120,11 @@ pub struct SurfaceSamples {
     normals: Vec<Vec3>,
     centroid: Vec3,
     axes: [Vec3; 3],
+    /// The triangle each point lies on.
+    sources: Vec<u32>,
+    /// The piece (a shell of the template) each point lies on, where
+    /// [`SurfaceSamples::with_pieces`] said; else empty.
+    pieces: Vec<u32>,
 }
 
 impl SurfaceSamples {
@@ -135,7 +140,7 @@ impl SurfaceSamples {
             .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
             .collect();
         let total: f64 = areas.iter().sum();
-        let (mut points, mut normals) = (Vec::new(), Vec::new());
+        let (mut points, mut normals, mut sources) = (Vec::new(), Vec::new(), Vec::new());
         if total > 0.0 && count > 0 {
             let step = total / count as f64;
             let (mut t, mut before) = (0, 0.0);
@@ -159,6 +164,7 @@ impl SurfaceSamples {
                 if keep(p) {
                     points.push(p);
                     normals.push((b - a).cross(c - a).normalize_or_zero());
+                    sources.push(t as u32);
                 }
             }
         }
@@ -179,7 +185,17 @@ impl SurfaceSamples {
             normals,
             centroid,
             axes,
+            sources,
+            pieces: Vec::new(),
         }
+    }
+
+    /// The samples, each told its piece: `piece_of[t]` for triangle `t`.
+    /// [`surface_fit`] then judges each piece of enough samples alone, so
+    /// that a copy missing a small shell is not one.
+    pub fn with_pieces(mut self, piece_of: &[u32]) -> SurfaceSamples {
+        self.pieces = self.sources.iter().map(|&t| piece_of[t as usize]).collect();
+        self
     }
 
     /// Whether there are none.
@@ -450,7 +466,21 @@ pub struct SurfaceFit {
     pub residual: f64,
     /// The scene triangle (mesh numbering) each of those samples lies on.
     pub landed: Vec<u32>,
+    /// The least agreement of a piece of at least [`PIECE_SAMPLES`]
+    /// samples (see [`SurfaceSamples::with_pieces`]); the agreement where
+    /// the samples have no pieces.
+    pub weakest_piece: f64,
 }
+
+/// A piece of fewer samples is judged only with the rest: its share would
+/// turn on a sample or two.
+pub const PIECE_SAMPLES: usize = 16;
+
+/// A piece of which less than this share lies on the scene's surface is
+/// missing there. A near twin's or a bent copy's shell still lies mostly
+/// on the scene (a ball 12% larger than the template's: 64% of it); a
+/// missing one nowhere.
+pub const PIECE_PRESENT: f64 = 0.5;
 
 /// The share of `samples`, placed by `pose`, that lie within `tolerance` of
 /// the scene's surface, of those not `hidden` (inside other material: a
@@ -468,27 +498,41 @@ pub fn surface_fit(
     hidden: impl Fn(Vec3) -> bool,
     max_hidden: f64,
 ) -> SurfaceFit {
-    let (mut landed, mut buried, mut squares) = (Vec::new(), 0usize, 0.0);
-    for &p in &samples.points {
+    let (mut landed, mut squares) = (Vec::new(), 0.0);
+    // Per piece: samples, those on the scene's surface, those hidden.
+    let count = samples.pieces.iter().max().map_or(1, |&p| p as usize + 1);
+    let mut tally = vec![[0usize; 3]; count];
+    for (i, &p) in samples.points.iter().enumerate() {
         let q = pose.apply(p);
+        let piece = samples.pieces.get(i).map_or(0, |&g| g as usize);
+        tally[piece][0] += 1;
         if let Some((_, t, distance)) = scene.nearest_triangle(q, tolerance) {
             landed.push(scene.triangles[t]);
             squares += distance * distance;
+            tally[piece][1] += 1;
         } else if hidden(q) {
-            buried += 1;
+            tally[piece][2] += 1;
         }
     }
-    let on = landed.len();
-    let total = samples.points.len() as f64;
-    let excused = (buried as f64).min(max_hidden * total);
+    let share = |[total, on, buried]: [usize; 3]| {
+        let excused = (buried as f64).min(max_hidden * total as f64);
+        let seen = total as f64 - excused;
+        if seen <= 0.0 { 0.0 } else { on as f64 / seen }
+    };
+    let whole = tally
+        .iter()
+        .fold([0usize; 3], |s, t| [s[0] + t[0], s[1] + t[1], s[2] + t[2]]);
+    let agreement = share(whole);
+    let weakest_piece = tally
+        .iter()
+        .filter(|t| t[0] >= PIECE_SAMPLES)
+        .map(|&t| share(t))
+        .fold(agreement, f64::min);
     SurfaceFit {
-        agreement: if total - excused <= 0.0 {
-            0.0
-        } else {
-            on as f64 / (total - excused)
-        },
-        residual: (squares / on.max(1) as f64).sqrt(),
+        agreement,
+        residual: (squares / landed.len().max(1) as f64).sqrt(),
         landed,
+        weakest_piece,
     }
 }
 
@@ -881,6 +925,38 @@ mod tests {
         assert!((a - (18.0 - off) / 16.2).abs() < 0.01, "{a}");
         let exact = agreement(&samples, &self::index(&template, 0.1), pose, tol, none, 0.0);
         assert_eq!(exact, 1.0);
+    }
+
+    /// A template of a large cube and a small one beside it, on a scene
+    /// of the large cube alone: nearly all the surface lies on the scene,
+    /// but the small cube's piece none of it.
+    #[test]
+    fn a_missing_piece_is_the_weakest() {
+        let mut template = cuboid(Vec3::ZERO, Vec3::splat(3.0));
+        template.append(&cuboid(Vec3::new(4.0, 0.0, 0.0), Vec3::new(4.5, 0.5, 0.5)));
+        let scene = cuboid(Vec3::ZERO, Vec3::splat(3.0));
+        let piece_of: Vec<u32> = (0..template.triangles().len())
+            .map(|t| u32::from(t >= 12))
+            .collect();
+        let samples = SurfaceSamples::new(&corners(&template), 4000, |_| true);
+        let pose = Rigid {
+            rotation: DMat3::IDENTITY,
+            translation: Vec3::ZERO,
+        };
+        let none = |_: Vec3| false;
+        let whole = surface_fit(&samples, &index(&scene, 0.1), pose, 0.05, none, 0.0);
+        assert!(
+            (whole.agreement - 54.0 / 55.5).abs() < 0.01,
+            "{}",
+            whole.agreement
+        );
+        assert_eq!(whole.weakest_piece, whole.agreement);
+        let samples = samples.with_pieces(&piece_of);
+        let fit = surface_fit(&samples, &index(&scene, 0.1), pose, 0.05, none, 0.0);
+        assert_eq!(fit.agreement, whole.agreement);
+        assert_eq!(fit.weakest_piece, 0.0);
+        let exact = surface_fit(&samples, &index(&template, 0.1), pose, 0.05, none, 0.0);
+        assert_eq!(exact.weakest_piece, 1.0);
     }
 
     #[test]

@@ -27,8 +27,9 @@ pub struct Instance {
     /// Its final descriptor distance.
     pub distance: f64,
     /// Verification score: the share of the template's surface that lies
-    /// on the scene's at the instance's pose (0..1); None where the
-    /// descriptor has no verification (curvature).
+    /// on the scene's at the instance's pose (0..1), or of a template's
+    /// shell that is missing there; None where the descriptor has no
+    /// verification (curvature).
     pub score: Option<f64>,
     /// How many surviving points the instance gathered.
     pub support: usize,

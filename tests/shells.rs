@@ -6,7 +6,8 @@
 //!
 //! The template is a rocker arm with a ball beside it, apart from it. The
 //! scene holds two copies alone, two standing on a wide plate that touches
-//! both shells, and a near twin whose ball is 12% larger.
+//! both shells, a near twin whose ball is 12% larger, and an arm without
+//! its ball.
 
 mod common;
 
@@ -50,6 +51,13 @@ fn search_scene(options: &MatchOptions) -> (Vec<Vec3>, Vec3, MatchReport) {
         scene.append(&placed(&template, turn, shift));
     }
     scene.append(&placed(&twin, twin_place.0, twin_place.1));
+    // The arm without its ball: most of the template's surface, not a copy.
+    let arm = common::scaled_model("rocker-arm.obj", 0.3);
+    scene.append(&placed(
+        &arm,
+        DQuat::from_rotation_x(0.5),
+        Vec3::new(0.0, 4.0, 0.0),
+    ));
     // A plate wider than the template, touching the last two copies'
     // shells from below.
     let lowest = |turn: DQuat, shift: Vec3| placed(&template, turn, shift).bounds().min.z;
@@ -129,4 +137,33 @@ fn a_copy_whose_centre_is_buried_is_found_at_a_further_anchor() {
         .map(|&(turn, shift)| turn * c + shift)
         .collect();
     common::assert_found_exactly(&report, &at, 0.02);
+}
+
+#[test]
+fn a_copy_missing_a_small_shell_is_not_one() {
+    // A bunny of radius 1 with a ball of 0.2 beside it: the ball is a few
+    // per cent of the surface, and the bunny alone lies on all the rest at
+    // float rounding.
+    let bunny = common::scaled_model("stanford-bunny.obj", 1.0);
+    let mut template = bunny.clone();
+    let b = bunny.bounds();
+    let centre = Vec3::new(b.max.x + 0.3, b.center().y, b.center().z);
+    template.append(&uv_sphere(centre, 0.2, 12, 24));
+    let copy = (DQuat::from_rotation_y(0.8), Vec3::new(0.0, 0.0, 0.0));
+    let mut scene = placed(&template, copy.0, copy.1);
+    scene.append(&placed(
+        &bunny,
+        DQuat::from_rotation_z(-0.6),
+        Vec3::new(5.0, 0.0, 0.0),
+    ));
+    let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
+    let report = search(
+        &scene,
+        &TemplateSource::Model(template),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let c = Vec3::from_array(report.template.center);
+    common::assert_found_exactly(&report, &[copy.0 * c + copy.1], 0.02);
 }

@@ -5,7 +5,7 @@
 
 use super::prepare::PartSearch;
 use super::whole::{Components, is_whole, template_index};
-use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, surface_fit};
+use crate::align::{PIECE_PRESENT, Rigid, SurfaceIndex, SurfaceSamples, align, surface_fit};
 use crate::cascade::Survivor;
 use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
 use crate::math::{Aabb, Vec3};
@@ -204,7 +204,12 @@ fn align_instances(
             };
             instance.pose = Some(pose.to_rows());
             instance.position = pose.apply(template.center()).to_array();
-            instance.score = Some(fit.agreement);
+            // A shell missing costs little of the whole surface (a pin, a
+            // wheel's hub), but the copy is not one: it scores that shell.
+            instance.score = Some(match fit.weakest_piece < PIECE_PRESENT {
+                true => fit.weakest_piece,
+                false => fit.agreement,
+            });
             instance.residual = Some(fit.residual);
             fit.landed
         })

@@ -9,8 +9,9 @@ use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
 use crate::error::{MemoryEstimate, Result};
+use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
-use crate::mesh::TriMesh;
+use crate::mesh::{TriMesh, connected_components};
 use crate::options::{DescriptorKind, MatchOptions};
 use crate::scene::{Lattice, Parts, Scene};
 use crate::template::{TemplateSource, VoxelTemplate};
@@ -93,7 +94,7 @@ impl<'a> PartSearch<'a> {
             template_harmonics,
             transform,
             verifiers,
-            samples: template_samples(&surface, &template),
+            samples: template_samples(&surface, &template, scene.backend()),
             surface,
             max_hidden,
             two_sided: template.parts() == Parts::Components,
@@ -208,13 +209,28 @@ fn template_surface(source: &TemplateSource, scene: &Scene, template: &VoxelTemp
 }
 
 /// Surface samples the template's pose is refined with: the template's
-/// `surface` within its sphere.
-fn template_samples(surface: &TriMesh, template: &VoxelTemplate) -> SurfaceSamples {
+/// `surface` within its sphere, each told its shell for a template of
+/// several.
+fn template_samples(
+    surface: &TriMesh,
+    template: &VoxelTemplate,
+    backend: Threads,
+) -> SurfaceSamples {
     let (c, r) = (template.center(), template.radius());
     let triangles: Vec<[Vec3; 3]> = (0..surface.triangles().len())
         .map(|t| surface.corners(t))
         .collect();
-    SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r)
+    let samples = SurfaceSamples::new(&triangles, ALIGN_SAMPLES, |p| p.distance(c) <= r);
+    if template.parts() == Parts::Components {
+        return samples;
+    }
+    let mut shell_of = vec![0u32; triangles.len()];
+    for (shell, members) in connected_components(surface, backend).iter().enumerate() {
+        for &t in members {
+            shell_of[t as usize] = shell as u32;
+        }
+    }
+    samples.with_pieces(&shell_of)
 }
 
 /// Template surface samples for the pose refinement.
