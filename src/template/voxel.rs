@@ -122,6 +122,8 @@ pub struct VoxelTemplate {
     /// How many of `anchors` every candidate is read at; the rest only
     /// where no copy was found.
     first_anchors: usize,
+    /// How many connected components a model has (1 for a selection).
+    shells: usize,
     candidate_spacing: u32,
 }
 
@@ -227,6 +229,7 @@ impl VoxelTemplate {
             parts,
             min_part_radius: PART_RADIUS_SLACK * sphere.radius,
             first_anchors: first_anchors.min(anchors.len()),
+            shells: shells.len(),
             anchors,
             candidate_spacing: candidate_spacing(&anchor, options),
         })
@@ -303,6 +306,7 @@ impl VoxelTemplate {
             // sphere, material the selection did not take.
             anchors: vec![anchor.voxel],
             first_anchors: 1,
+            shells: 1,
             candidate_spacing: candidate_spacing(&anchor, options),
         })
     }
@@ -376,6 +380,12 @@ impl VoxelTemplate {
     /// several shells' further anchors, else none.
     pub fn fallback_anchors(&self) -> Anchors {
         all_anchors(self.anchors.len()) & !self.first_anchors()
+    }
+
+    /// How many connected components the template has: a part of fewer
+    /// cannot hold a copy whose shells stand apart.
+    pub fn shells(&self) -> usize {
+        self.shells
     }
 
     /// One candidate per cube of this many voxels: the option's, or 1

@@ -38,9 +38,12 @@ impl PartSearch<'_> {
         }
         // A part joined from several components may hold a neighbour
         // against a copy's c_T: its candidates are kept for the further
-        // anchors.
+        // anchors. One of fewer components than the template's shells
+        // holds no copy whose shells stand apart (a wheel pair without its
+        // hub), nor one buried by a neighbour.
         let fallback = match part.components() {
             1 => 0,
+            n if n < self.template.shells() => 0,
             _ => self.template.fallback_anchors(),
         };
         let mut estimate = runner.held.clone();
