@@ -612,10 +612,13 @@ const TURNED: Run = Run {
     iterations: 8,
 };
 
-/// The placement reported.
+/// The placement reported. Most placements converge within 20
+/// iterations; a nearly axisymmetric part (a truck's wheel pair, its tread
+/// the only hold on the turn about the axle) creeps on: after 20 it was
+/// 1.9 degrees off, after 80 0.4.
 const FULL: Run = Run {
     stride: 1,
-    iterations: 20,
+    iterations: 80,
 };
 
 /// Iterative closest points from `start`. A sample is paired only with
