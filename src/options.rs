@@ -163,12 +163,16 @@ pub struct MatchOptions {
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.surface_tolerance))]
     pub surface_tolerance: f64,
     /// Voxel descriptors: the least number of voxels the template's
-    /// bounding radius spans; a smaller template refines the grid.
+    /// bounding radius spans; a smaller template refines the grid, one
+    /// spanning more than three times this coarsens it.
     ///
     /// The scene's resolution is raised for the search until the template
     /// spans this many voxels: a part that is 2% of an assembly spans 10 at
-    /// resolution 512, where a copy's pose and a longer pin look alike.
-    /// 0 keeps the scene's resolution. Default: 32.
+    /// resolution 512, where a copy's pose and a longer pin look alike. A
+    /// part half the scene would span over 100, and its ball tables grow
+    /// with the cube of that: it is searched where it spans three times
+    /// this (the meshes make the pose exact). 0 keeps the scene's
+    /// resolution. Default: 32.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.template_voxels))]
     pub template_voxels: f64,
     /// Voxel descriptors: one candidate point per cube of this many voxels

@@ -221,15 +221,24 @@ fn case_5_ball_tables_are_counted_before_they_are_built() {
     };
     let e = search(&scene, &wide, &MatchOptions::DEFAULT, &mut ()).unwrap_err();
     assert!(matches!(e, Error::TemplateLargerThanScene { .. }), "{e}");
-    // A radius of the scene's size at resolution 1024: a thousand voxels.
+    // A radius of the scene's size at resolution 1024, kept there: a
+    // thousand voxels.
     let scene = small_scene(1024);
     let whole = TemplateSource::Selection {
         center: [0.0; 3],
         radius: 1.0,
     };
-    let e = search(&scene, &whole, &MatchOptions::DEFAULT, &mut ()).unwrap_err();
+    let mut kept = MatchOptions::DEFAULT;
+    kept.template_voxels = 0.0;
+    let e = search(&scene, &whole, &kept, &mut ()).unwrap_err();
     assert!(matches!(e, Error::OverBudget { .. }), "{e}");
     assert!(e.to_string().contains("ball tables"), "{e}");
+    // By default the lattice is coarsened until it spans 96, and the
+    // selection is found where it was taken.
+    let found = search(&scene, &whole, &MatchOptions::DEFAULT, &mut ()).unwrap();
+    let grid = found.grid.expect("a voxel search");
+    assert!(grid.resolution < 1024, "{grid:?}");
+    assert_eq!(found.instances.len(), 1, "{:?}", found.instances);
     let dir = scratch("ball-tables");
     let tet = write(&dir, "tet.stl", hostile::tetrahedron(1.0));
     for args in [
@@ -249,6 +258,8 @@ fn case_5_ball_tables_are_counted_before_they_are_built() {
             "0,0,0,1",
             "--resolution",
             "2048",
+            "--template-voxels",
+            "0",
         ],
     ] {
         let err = cli_error(&args);

@@ -66,3 +66,43 @@ fn fixtures_on_a_floor_slab_a_hundred_metres_wide_are_all_found() {
         .collect();
     common::assert_found_exactly(&report, &truth, 0.1 * r);
 }
+
+/// Two turned copies of a model that are nearly half the scene each, and a
+/// near twin 10% smaller: at the scene's resolution the template would span
+/// about 120 voxels, its ball tables growing with the cube of that. It is
+/// searched on a lattice where it spans between 32 and 96, and both copies
+/// are found, the twin not.
+#[test]
+fn a_part_half_the_scene_is_searched_on_a_coarser_lattice() {
+    let template = common::scaled_model("teapot.obj", 1.0);
+    let turns: [(f64, f64); 3] = [(0.4, 0.7), (2.1, -1.2), (4.0, 0.3)];
+    let mut scene: Option<TriMesh> = None;
+    let mut places = Vec::new();
+    for (i, &(a, b)) in turns.iter().enumerate() {
+        let turn = DQuat::from_axis_angle(Vec3::new(a.cos(), a.sin(), b).normalize(), a + b);
+        let at = Vec3::new(2.1 * i as f64, 0.3 * i as f64, 0.0);
+        let scale = if i == 2 { 0.9 } else { 1.0 };
+        let copy = template.map_positions(|p| turn * (p * scale) + at).unwrap();
+        match scene.as_mut() {
+            Some(scene) => scene.append(&copy),
+            None => scene = Some(copy),
+        }
+        if i < 2 {
+            places.push((turn, at));
+        }
+    }
+    let scene = Scene::new(scene.unwrap(), &SceneOptions::DEFAULT).unwrap();
+    let report = search(
+        &scene,
+        &TemplateSource::Model(template.clone()),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap();
+    let grid = report.grid.clone().expect("a voxel search");
+    let span = report.template.radius / grid.voxel_size;
+    assert!((32.0..=96.5).contains(&span), "{span} voxels: {grid:?}");
+    let c = Vec3::from_array(report.template.center);
+    let truth: Vec<Vec3> = places.iter().map(|&(turn, at)| turn * c + at).collect();
+    common::assert_found_exactly(&report, &truth, 0.05 * report.template.radius);
+}

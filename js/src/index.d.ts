@@ -68,7 +68,7 @@ export interface MatchOptions {
   hiddenSurface?: number;
   /** How far from the scene's surface a point of the template's may lie at an instance's pose, as a share of the template's radius; lower it (0.01) where copies are exact, as CAD instances are (default 0.03). */
   surfaceTolerance?: number;
-  /** Least number of voxels a voxel template's bounding radius spans: a smaller template refines the grid; 0 keeps the scene's resolution (default 32). */
+  /** Least number of voxels a voxel template's bounding radius spans: a smaller template refines the grid, one spanning over three times this coarsens it; 0 keeps the scene's resolution (default 32). */
   templateVoxels?: number;
   /** One candidate point per cube of this many voxels a side; 1 makes every skin voxel a candidate (default 2). */
   candidateSpacing?: number;

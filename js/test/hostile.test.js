@@ -65,13 +65,13 @@ function refused(t, what, f, pattern, limitMs) {
 }
 
 /** Searches `sceneBytes` (scene options `options`) for the template `makeTemplate` builds, freeing both. */
-function search(sceneBytes, makeTemplate, options = {}) {
+function search(sceneBytes, makeTemplate, options = {}, matchOptions = {}) {
   return () => {
     const scene = Scene.fromBytes(sceneBytes, options);
     let template;
     try {
       template = makeTemplate();
-      return scene.match(template);
+      return scene.match(template, matchOptions);
     } finally {
       template?.free();
       scene.free();
@@ -129,10 +129,14 @@ test('case 5: a selection wider than the scene, and ball tables past the memory 
   );
   refused(
     t,
-    'tetrahedron.stl at resolution 1024, selection radius 1 (1024 voxels)',
-    search(scene, () => Template.fromSelection([0, 0, 0], 1), { resolution: 1024 }),
+    'tetrahedron.stl at resolution 1024 kept, selection radius 1 (1024 voxels)',
+    search(scene, () => Template.fromSelection([0, 0, 0], 1), { resolution: 1024 }, { templateVoxels: 0 }),
     /not enough memory.*ball tables/,
   );
+  // By default the lattice is coarsened for it, and it is found.
+  const found = search(scene, () => Template.fromSelection([0, 0, 0], 1), { resolution: 1024 })();
+  assert.equal(found.instances.length, 1);
+  assert.ok(found.grid.resolution < 1024, `resolution ${found.grid.resolution}`);
 });
 
 test('case 6: 2000 random large triangles end in a result or an Error', async (t) => {

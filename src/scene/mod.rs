@@ -112,6 +112,18 @@ pub struct Lattice {
     pub resolution: u32,
 }
 
+/// A template spans at most this many times its least span of voxels
+/// (`MatchOptions::template_voxels`): a large part is searched on a
+/// coarser lattice. A template's ball tables grow with the cube of its
+/// span (a model searched in a scene of itself spanned 256 voxels and
+/// asked 3.5 GiB), and the meshes, not the voxels, make the pose exact.
+pub const SPAN_RANGE: f64 = 3.0;
+
+/// A lattice is never coarsened below this many voxels along the scene's
+/// longest side: a selection wider than the scene would otherwise leave
+/// it a handful of voxels.
+pub const MIN_COARSE_RESOLUTION: f64 = 64.0;
+
 /// The finest lattice a template may ask for, in voxels along the scene's
 /// longest side: a 2 km site at a millimetre.
 pub const MAX_LATTICE_RESOLUTION: f64 = (1u32 << 21) as f64;
@@ -247,17 +259,23 @@ impl Scene {
     }
 
     /// The lattice on which a template of bounding radius `radius` spans at
-    /// least `voxels` voxels: the scene's own, or finer. A part too large
-    /// for one grid on it is searched in windows (`search::windows`), so
-    /// the scene's extent does not coarsen it.
+    /// least `voxels` voxels and at most [`SPAN_RANGE`] times that: the
+    /// scene's own, or finer for a small template, or coarser for a large
+    /// one. A part too large for one grid on it is searched in windows
+    /// (`search::windows`), so the scene's extent does not coarsen it.
     pub fn lattice_for(&self, radius: f64, voxels: f64) -> Result<Lattice> {
         let bounds = self.mesh.bounds();
         let longest = bounds.extent().max_element();
-        let needed = (longest * voxels / radius).ceil();
-        if !(needed.is_finite() && needed > f64::from(self.resolution)) {
+        let own = f64::from(self.resolution);
+        let fewest = (longest * voxels / radius).ceil();
+        let most = (longest * SPAN_RANGE * voxels / radius).ceil();
+        let resolution = if fewest.is_finite() && fewest > own {
+            fewest.min(MAX_LATTICE_RESOLUTION)
+        } else if most.is_finite() && most < own {
+            most.max(MIN_COARSE_RESOLUTION.min(own))
+        } else {
             return Ok(self.lattice());
-        }
-        let resolution = needed.min(MAX_LATTICE_RESOLUTION) as u32;
+        } as u32;
         // As `GridSpec::for_scene` places it, past its limit of a grid's
         // side: only crops of it are ever allocated.
         Ok(Lattice {
