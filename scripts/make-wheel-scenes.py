@@ -46,9 +46,8 @@ def main():
     template = trimesh.util.concatenate([wheel(-1.3), hub, wheel(1.3)])
     template_path = os.path.join(a.out, "template.glb")
     template.export(template_path)
-    # The template alone at a coarse resolution: at the default, a model
-    # searched in a scene of itself is refused for memory (its radius spans
-    # the whole lattice). r_k only scales the scorer's tolerance.
+    # The template alone, at a coarse resolution to be quick: r_k only
+    # scales the scorer's tolerance.
     found = subprocess.run([a.cli, "match", template_path, "--template", template_path,
                             "--resolution", "128", "--json"],
                            capture_output=True, text=True, check=True)
