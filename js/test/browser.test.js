@@ -31,12 +31,15 @@ test('threaded build near its memory cap: a large grid runs, a larger one is an 
   // of it, and no more than is free) counts everything a search builds,
   // with room to spare: zoo-bunny at 900 needs about 510 MiB by its
   // estimate (1100, which needs about 870, once ran in 536 MB natively).
-  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 900 }]);
+  // templateVoxels 0 keeps the resolution asked for: by default a template
+  // spanning over 96 voxels is searched on a coarser lattice.
+  const kept = { templateVoxels: 0 };
+  const [large] = await runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 900, options: kept }]);
   assert.equal(large.info.memoryLimitBytes, 2 ** 30);
   assert.ok(large.instances.length > 0);
   assert.ok(large.memoryBytes < 2 ** 30);
   await assert.rejects(
-    runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 2048 }]),
+    runInBrowser([{ build: 'threads', scene: 'zoo-bunny', resolution: 2048, options: kept }]),
     /lower the resolution/,
   );
 });

@@ -33,9 +33,10 @@ onmessage = async ({ data: job }) => {
       layers += 1;
     };
     // `gpu`: the layers on WebGPU, the software adapter allowed.
+    const options = job.options ?? {};
     const report = job.gpu
-      ? await scene.matchGpu(template, {}, count, { allowSoftware: true })
-      : scene.match(template, {}, count);
+      ? await scene.matchGpu(template, options, count, { allowSoftware: true })
+      : scene.match(template, options, count);
     const wallMs = performance.now() - start;
     template.free();
     scene.free();
