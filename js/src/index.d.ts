@@ -40,7 +40,7 @@ export type DescriptorName = 'volume+harmonics' | 'volume' | 'harmonics' | 'curv
 export interface SceneOptions {
   /** The format; recognized from the content when absent. */
   format?: MeshFormat;
-  /** Voxels along the scene's longest side, 8..=16384 (default 512). */
+  /** Voxels along the scene's longest side, 8..=16384; a search refines it for a small template and coarsens it for a large one (`templateVoxels`; 0 keeps it) (default 512). */
   resolution?: number;
 }
 

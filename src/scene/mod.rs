@@ -39,6 +39,8 @@ use parts::{join_shells, split_parts};
 pub struct SceneOptions {
     /// Voxels along the scene's longest side.
     ///
+    /// A search refines this lattice for a small template and coarsens it
+    /// for a large one (`MatchOptions::template_voxels`; 0 keeps it).
     /// Default: 512 (the paper's).
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = SceneOptions::DEFAULT.resolution))]
     pub resolution: u32,
