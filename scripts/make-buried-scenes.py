@@ -11,10 +11,12 @@ format) under --out.
     make-buried-scenes.py --big cow.obj --small cheburashka.obj --seed 3 \
         --out /tmp/buried-cow --cli target/release/fast-reject
 """
-import argparse, json, os, subprocess, sys
+import argparse, os, sys
 
 import numpy as np
 import trimesh
+
+from generated_scene import random_turn, template_report, write_scene
 
 
 def normalized(path, radius):
@@ -23,12 +25,6 @@ def normalized(path, radius):
     mesh.apply_translation(-centre)
     mesh.apply_scale(radius / np.linalg.norm(mesh.vertices, axis=1).max())
     return mesh
-
-
-def random_turn(rng):
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    return trimesh.transformations.quaternion_matrix(q)
 
 
 def main():
@@ -51,13 +47,9 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     template_path = os.path.join(a.out, "template.glb")
     template.export(template_path)
-    found = subprocess.run(
-        [a.cli, "match", template_path, "--template", template_path, "--json"],
-        check=True, capture_output=True, text=True,
-    )
-    report = json.loads(found.stdout)
-    c_t = np.array(report["template"]["center"])
-    radius = report["template"]["radius"]
+    report = template_report(a.cli, template_path)
+    c_t = np.array(report["center"])
+    radius = report["radius"]
     scene = trimesh.Scene()
     truth = []
     spacing = 4.0 * radius
@@ -75,10 +67,7 @@ def main():
     scene.add_geometry(decoy.apply_translation([0.0, spacing * row, 0.0]), node_name="decoy")
     other = normalized(os.path.join(a.models, a.distractor), 1.0)
     scene.add_geometry(other.apply_translation([spacing, spacing * row, 0.0]), node_name="distractor")
-    scene.export(os.path.join(a.out, "scene.glb"))
-    with open(os.path.join(a.out, "truth.json"), "w") as f:
-        json.dump({"template": "template.glb", "scene": "scene.glb", "instances": truth,
-                   "tolerance": 0.2, "template_radius": radius}, f)
+    write_scene(a.out, scene, truth, radius)
     print(f"{a.out}: {a.copies} copies, {a.copies // 2} with c_T buried", file=sys.stderr)
 
 

@@ -17,10 +17,12 @@ truth.json's template_radius.
 
     make-hollow-scenes.py --seed 1 --out /tmp/pistons-1 --cli target/release/fast-reject
 """
-import argparse, json, os, subprocess
+import argparse, os
 
 import numpy as np
 import trimesh
+
+from generated_scene import random_turn, template_report, write_scene
 
 RADIUS, HEIGHT, WALL, CROWN = 1.0, 1.4, 0.12, 0.25
 
@@ -60,12 +62,6 @@ def bore(scale=1.0):
     return trimesh.creation.revolve(np.array(profile), sections=64)
 
 
-def random_turn(rng):
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    return trimesh.transformations.quaternion_matrix(q)
-
-
 def assembly(pose, scale, bored, name, scene):
     for what, mesh in (("pin", pin(scale)), ("rod", rod(scale))) + ((("bore", bore(scale)),) if bored else ()):
         scene.add_geometry(mesh.apply_transform(pose), node_name=f"{what}#{name}")
@@ -85,9 +81,7 @@ def main():
     template = piston()
     template_path = os.path.join(a.out, "template.glb")
     template.export(template_path)
-    found = subprocess.run([a.cli, "match", template_path, "--template", template_path, "--json"],
-                           capture_output=True, text=True, check=True)
-    radius = json.loads(found.stdout)["template"]["radius"]
+    radius = template_report(a.cli, template_path)["radius"]
     scene, truth = trimesh.Scene(), []
     # The first piston stands alone, turned at random. The others sit in
     # bores 2.9 apart, touching as in an engine block's row of cylinders,
@@ -109,10 +103,7 @@ def main():
         pose[:3, 3] = [6.0, -5.0, 0]
         scene.add_geometry(piston(0.88).apply_transform(pose), node_name="decoy")
         assembly(pose, 0.88, True, "decoy", scene)
-    scene.export(os.path.join(a.out, "scene.glb"))
-    with open(os.path.join(a.out, "truth.json"), "w") as f:
-        json.dump({"template": "template.glb", "scene": "scene.glb", "instances": truth,
-                   "tolerance": 0.2, "template_radius": radius}, f)
+    write_scene(a.out, scene, truth, radius)
 
 
 if __name__ == "__main__":

@@ -10,10 +10,12 @@ truth.json's template_radius.
 
     make-wheel-scenes.py --seed 1 --out /tmp/wheels-1 --cli target/release/fast-reject
 """
-import argparse, json, os, subprocess
+import argparse, os
 
 import numpy as np
 import trimesh
+
+from generated_scene import random_turn, template_report, write_scene
 
 X_AXIS = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0])
 
@@ -24,12 +26,6 @@ def wheel(x):
     ring.apply_transform(X_AXIS)
     ring.apply_translation([x, 0, 0])
     return ring
-
-
-def random_turn(rng):
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    return trimesh.transformations.quaternion_matrix(q)
 
 
 def main():
@@ -48,10 +44,7 @@ def main():
     template.export(template_path)
     # The template alone, at a coarse resolution to be quick: r_k only
     # scales the scorer's tolerance.
-    found = subprocess.run([a.cli, "match", template_path, "--template", template_path,
-                            "--resolution", "128", "--json"],
-                           capture_output=True, text=True, check=True)
-    radius = json.loads(found.stdout)["template"]["radius"]
+    radius = template_report(a.cli, template_path, "--resolution", "128")["radius"]
     scene, truth = trimesh.Scene(), []
     for k in range(4):
         pose = random_turn(rng)
@@ -70,10 +63,7 @@ def main():
     pose = random_turn(rng)
     pose[:3, 3] = [0, 8.0, 0]
     scene.add_geometry(decoy.apply_transform(pose), node_name="decoy")
-    scene.export(os.path.join(a.out, "scene.glb"))
-    with open(os.path.join(a.out, "truth.json"), "w") as f:
-        json.dump({"template": "template.glb", "scene": "scene.glb", "instances": truth,
-                   "tolerance": 0.2, "template_radius": radius}, f)
+    write_scene(a.out, scene, truth, radius)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,33 @@
+"""What the scene generators share: a random turn, the template's own
+report from the CLI (c_T and r_k), and writing a scene with its truth.json
+in the shared scenes' format."""
+import json
+import os
+import subprocess
+
+import numpy as np
+import trimesh
+
+
+def random_turn(rng):
+    """A 4x4 rotation drawn uniformly."""
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return trimesh.transformations.quaternion_matrix(q)
+
+
+def template_report(cli, template_path, *extra):
+    """The CLI's `template` entry (center, radius) for the template searched
+    in a scene of itself; `extra` are further CLI arguments."""
+    found = subprocess.run([cli, "match", template_path, "--template", template_path, "--json", *extra],
+                           capture_output=True, text=True, check=True)
+    return json.loads(found.stdout)["template"]
+
+
+def write_scene(out, scene, truth, radius):
+    """scene.glb and truth.json under `out`; `truth` lists {node, transform}
+    and `radius` is r_k, which scales the scorer's tolerance."""
+    scene.export(os.path.join(out, "scene.glb"))
+    with open(os.path.join(out, "truth.json"), "w") as f:
+        json.dump({"template": "template.glb", "scene": "scene.glb", "instances": truth,
+                   "tolerance": 0.2, "template_radius": radius}, f)
