@@ -6,7 +6,7 @@ mod common;
 
 use fast_reject::math::Vec3;
 use fast_reject::template::VoxelTemplate;
-use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load, search};
+use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, load};
 use glam::DQuat;
 
 /// The Utah teapot scaled to a bounding radius of about 1: its lid sits on
@@ -36,13 +36,7 @@ fn teapots_turned_every_way_are_all_found() {
         scene.append(&template.map_positions(|p| place(i, p)).unwrap());
     }
     let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
-    let report = search(
-        &scene,
-        &TemplateSource::Model(template),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let report = common::search_model(&scene, template);
     let c = Vec3::from_array(report.template.center);
     let r = report.template.radius;
     let truth: Vec<Vec3> = (0..turns.len()).map(|i| place(i, c)).collect();

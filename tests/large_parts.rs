@@ -9,7 +9,7 @@ mod common;
 
 use fast_reject::math::Vec3;
 use fast_reject::mesh::shapes::cuboid;
-use fast_reject::{MatchOptions, Scene, SceneOptions, TemplateSource, TriMesh, search};
+use fast_reject::{Scene, SceneOptions, TriMesh};
 use glam::DQuat;
 
 /// The rocker arm scaled to a bounding radius of about `radius`, centred.
@@ -43,13 +43,7 @@ fn fixtures_on_a_floor_slab_a_hundred_metres_wide_are_all_found() {
         scene.append(&turned.map_positions(|p| p + at + lift).unwrap());
     }
     let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
-    let report = search(
-        &scene,
-        &TemplateSource::Model(template.clone()),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let report = common::search_model(&scene, template.clone());
     let c = Vec3::from_array(report.template.center);
     let r = report.template.radius;
     // The slab, searched in windows, does not coarsen the lattice: the
@@ -92,13 +86,7 @@ fn a_part_half_the_scene_is_searched_on_a_coarser_lattice() {
         }
     }
     let scene = Scene::new(scene.unwrap(), &SceneOptions::DEFAULT).unwrap();
-    let report = search(
-        &scene,
-        &TemplateSource::Model(template.clone()),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let report = common::search_model(&scene, template.clone());
     let grid = report.grid.clone().expect("a voxel search");
     let span = report.template.radius / grid.voxel_size;
     assert!((32.0..=96.5).contains(&span), "{span} voxels: {grid:?}");

@@ -105,13 +105,7 @@ fn a_copy_whose_centre_is_buried_is_found_at_a_further_anchor() {
     // anchor away from c_T.
     let template = arm_and_ball(0.08);
     let alone = Scene::new(template.clone(), &SceneOptions::DEFAULT).unwrap();
-    let own = search(
-        &alone,
-        &TemplateSource::Model(template.clone()),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let own = common::search_model(&alone, template.clone());
     let c = Vec3::from_array(own.template.center);
     let copies = [
         (DQuat::from_rotation_z(0.7), Vec3::new(0.0, 0.0, 0.0)),
@@ -125,13 +119,7 @@ fn a_copy_whose_centre_is_buried_is_found_at_a_further_anchor() {
     let buried = copies[1].0 * c + copies[1].1;
     scene.append(&uv_sphere(buried, 0.05, 12, 24));
     let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
-    let report = search(
-        &scene,
-        &TemplateSource::Model(template),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let report = common::search_model(&scene, template);
     let at: Vec<Vec3> = copies
         .iter()
         .map(|&(turn, shift)| turn * c + shift)
@@ -157,13 +145,7 @@ fn a_copy_missing_a_small_shell_is_not_one() {
         Vec3::new(5.0, 0.0, 0.0),
     ));
     let scene = Scene::new(scene, &SceneOptions::DEFAULT).unwrap();
-    let report = search(
-        &scene,
-        &TemplateSource::Model(template),
-        &MatchOptions::DEFAULT,
-        &mut (),
-    )
-    .unwrap();
+    let report = common::search_model(&scene, template);
     let c = Vec3::from_array(report.template.center);
     common::assert_found_exactly(&report, &[copy.0 * c + copy.1], 0.02);
 }

@@ -250,6 +250,17 @@ pub fn assert_finds_everything(name: &str, select: bool, report: &MatchReport) {
     );
 }
 
+/// `model` searched in `scene` with the default options.
+pub fn search_model(scene: &Scene, model: fast_reject::TriMesh) -> MatchReport {
+    search(
+        scene,
+        &TemplateSource::Model(model),
+        &MatchOptions::DEFAULT,
+        &mut (),
+    )
+    .unwrap()
+}
+
 /// A shared model centred on its box and scaled so that half the box's
 /// diagonal is `radius`.
 pub fn scaled_model(file: &str, radius: f64) -> fast_reject::TriMesh {
