@@ -707,12 +707,16 @@ impl Course {
         let then = self.recent.pop_front().expect("more than one pose");
         let moved = pose.after(&then.inverse());
         let at = then.apply(centroid);
-        let r = moved.rotation;
-        let turn = ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos();
-        moved.apply(at).distance(at) + turn * self.reach < SETTLE_MOVE * voxel
+        moved.apply(at).distance(at) + turn_angle(moved.rotation) * self.reach < SETTLE_MOVE * voxel
     }
+}
+
+/// The angle `rotation` turns by, from its trace.
+fn turn_angle(rotation: DMat3) -> f64 {
+    let r = rotation;
+    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
 }
 
 /// Iterative closest points from `start`. A sample is paired only with
@@ -868,10 +872,7 @@ mod tests {
     }
 
     fn angle(a: DMat3, b: DMat3) -> f64 {
-        let e = a * b.transpose();
-        ((e.x_axis.x + e.y_axis.y + e.z_axis.z - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos()
+        turn_angle(a * b.transpose())
     }
 
     /// The closest point found through the cells is the closest of all
