@@ -19,7 +19,7 @@ fn main() -> std::io::Result<()> {
     let attack_uri = hostile::TERMINAL_ATTACK
         .replace('\u{1b}', "\\u001b")
         .replace('\u{7}', "\\u0007");
-    let files: [(&str, Vec<u8>); 12] = [
+    let files: [(&str, Vec<u8>); 13] = [
         (
             "escape-absolute.gltf",
             hostile::gltf_with_buffer("/etc/passwd", 1 << 30).into_bytes(),
@@ -56,6 +56,11 @@ fn main() -> std::io::Result<()> {
         (
             "quantized.gltf",
             hostile::quantized_tetrahedron(true, r#""a string""#).into_bytes(),
+        ),
+        // The curvature descriptor's work: 1.5e9 triangles measured.
+        (
+            "fanned-cylinder-24000.stl",
+            hostile::fanned_cylinder(24_000),
         ),
     ];
     for (name, bytes) in files {

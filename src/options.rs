@@ -210,6 +210,18 @@ pub struct MatchOptions {
     #[cfg_attr(feature = "serde", serde(skip))]
     #[cfg_attr(feature = "cli", arg(skip = ClutterPolicy::DEFAULT))]
     pub clutter: ClutterPolicy,
+    /// Curvature: refuse a search whose layers would measure more
+    /// triangles than this (gathered into a vertex's neighbourhood or
+    /// clipped by its sphere), with [`crate::Error::CurvatureTooMuchWork`].
+    ///
+    /// The search's time follows this count; slivers and fans put
+    /// thousands of triangles in every ball and make it quadratic in the
+    /// mesh. The embedder's setting, not on the CLI or in JavaScript.
+    /// Default: 2^30, about two minutes of one core; the shared scenes
+    /// need at most 5.3e8 (crowd-rocker, a large template on a fine mesh).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = MatchOptions::DEFAULT.max_curvature_work))]
+    pub max_curvature_work: f64,
     /// Serial or parallel. Default: parallel. The CLI sets it from
     /// `--threads`; JavaScript from the build it loaded.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -235,6 +247,7 @@ impl MatchOptions {
         whole_copies: false,
         keep_near_twins: false,
         clutter: ClutterPolicy::DEFAULT,
+        max_curvature_work: (1u64 << 30) as f64,
         backend: Threads::Parallel,
     };
 
@@ -253,6 +266,12 @@ impl MatchOptions {
         positive("harmonics threshold", self.harmonics_threshold)?;
         positive("curvature threshold", self.curvature_threshold)?;
         positive("group radius", self.group_radius)?;
+        if self.max_curvature_work.is_nan() || self.max_curvature_work <= 0.0 {
+            return Err(Error::invalid_option(
+                "max curvature work",
+                format!("must be a positive number, got {}", self.max_curvature_work),
+            ));
+        }
         positive("surface tolerance", self.surface_tolerance)?;
         if self.surface_tolerance > 1.0 {
             return Err(Error::invalid_option(

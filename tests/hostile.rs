@@ -11,9 +11,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
+use fast_reject::cascade::Observer;
+use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
-use fast_reject::search::{MatchOptions, search};
+use fast_reject::search::{DescriptorKind, MatchOptions, search};
 use fast_reject::template::TemplateSource;
 use fast_reject::{Error, Format};
 
@@ -630,4 +632,68 @@ fn case_15_a_huge_part_lists_only_the_windows_it_needs() {
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
+}
+
+/// Case 16: the curvature descriptor on a cylinder of slivers and fans,
+/// where every vertex's ball holds thousands of triangles and the work
+/// grows with the square of the mesh (80 s at 24 000 segments): refused
+/// from a sample of the vertices before the search starts, and, where
+/// the mesh is too small to sample, once the work passes the limit. A
+/// search within the limit finds what an unlimited one finds.
+#[test]
+fn case_16_the_curvature_search_bounds_its_work() {
+    let dir = scratch("fanned");
+    let fanned = write(&dir, "fanned.stl", hostile::fanned_cylinder(24_000));
+    let started = Instant::now();
+    let out = cli_within(
+        &[
+            "match",
+            &fanned,
+            "--descriptor",
+            "curvature",
+            "--select",
+            "1,0,2,0.3",
+        ],
+        Duration::from_secs(20),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("curvature search would measure") && err.contains("remesh"),
+        "{err}"
+    );
+    assert!(started.elapsed() < Duration::from_secs(20));
+
+    let search_fan = |segments, limit: f64, backend, observer: &mut dyn Observer| {
+        let mesh = load(&hostile::fanned_cylinder(segments), None).unwrap();
+        let scene = Scene::new(mesh, &SceneOptions::DEFAULT).unwrap();
+        let mut options = MatchOptions::DEFAULT;
+        options.descriptor = DescriptorKind::Curvature;
+        options.max_curvature_work = limit;
+        options.backend = backend;
+        let selection = TemplateSource::Selection {
+            center: [1.0, 0.0, 2.0],
+            radius: 0.3,
+        };
+        search(&scene, &selection, &options, observer)
+    };
+    // Too few vertices to sample (1 202): the count stops the pass, on any
+    // number of threads.
+    for backend in [Threads::Serial, Threads::Parallel] {
+        let e = search_fan(600, 1e5, backend, &mut ()).unwrap_err();
+        assert!(matches!(e, Error::CurvatureTooMuchWork { .. }), "{e}");
+    }
+    let unlimited = search_fan(600, f64::INFINITY, Threads::Parallel, &mut ()).unwrap();
+    let within = search_fan(600, 1e8, Threads::Parallel, &mut ()).unwrap();
+    assert!(!unlimited.instances.is_empty());
+    assert_eq!(within.instances, unlimited.instances);
+    // Enough to sample (6 002): refused before any layer is reported.
+    let mut layers = 0;
+    let mut count = |_: &fast_reject::cascade::LayerStats| {
+        layers += 1;
+        std::ops::ControlFlow::Continue(())
+    };
+    let e = search_fan(3000, 1e6, Threads::Parallel, &mut count).unwrap_err();
+    assert!(matches!(e, Error::CurvatureTooMuchWork { .. }), "{e}");
+    assert_eq!(layers, 0, "the search started before it was refused");
 }

@@ -191,6 +191,16 @@ test('case 10: valid files once refused load: a binary STL whose header says glT
   }
 });
 
+test('case 11: the curvature search on a cylinder of slivers and fans is refused before it starts', async (t) => {
+  const scene = await file('fanned-cylinder-24000.stl');
+  refused(
+    t,
+    'fanned-cylinder-24000.stl under curvature, selection radius 0.3',
+    search(scene, () => Template.fromSelection([1, 0, 2], 0.3), {}, { descriptor: 'curvature' }),
+    /curvature search would measure about .* triangles/,
+  );
+});
+
 test('after every case, the same module still finds the demo scene\'s three instances', async (t) => {
   const [scene, template] = await Promise.all([
     readFile(new URL('scene.glb', demo)),

@@ -181,6 +181,23 @@ pub enum Error {
         advice: String,
     },
 
+    /// The curvature search would measure more triangles than its work
+    /// limit allows: where triangles are long next to the spacing of the
+    /// vertices (slivers, fans), every vertex's ball holds thousands.
+    #[error(
+        "the curvature search would measure about {work:.3e} triangles (about {per_ball:.0} in each vertex's ball), above the limit of {limit:.3e} (minutes of work); {advice}"
+    )]
+    CurvatureTooMuchWork {
+        /// The triangles measured, projected over every candidate.
+        work: f64,
+        /// Of those, per candidate and layer.
+        per_ball: f64,
+        /// The limit.
+        limit: f64,
+        /// What would work.
+        advice: String,
+    },
+
     /// The parts a search would voxelize one by one have bounding boxes far
     /// larger together than the scene's: they overlap many times over
     /// (large triangles crossing each other, each its own part), and each

@@ -3,17 +3,19 @@
 
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
 use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
-use crate::cascade::{LayerStats, Observer, Survivor, run_cascade_in_chunks};
+use crate::cascade::{LayerStats, Observer, Progress, Survivor, run_cascade_in_chunks};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
 use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, Surface, VertexSample};
 use crate::error::MemoryEstimate;
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::exec::Threads;
 use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;
 use crate::options::MatchOptions;
 use crate::scene::Scene;
 use crate::template::{CurvatureTemplate, TemplateSource};
+use std::ops::ControlFlow;
 
 /// Candidates a thread takes through every layer at a time: few enough
 /// that their neighbourhoods (a fanned cap's vertex holds thousands of
@@ -102,10 +104,12 @@ fn cascade(
     options: &MatchOptions,
     observer: &mut dyn Observer,
 ) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+    let limit = options.max_curvature_work;
     let spacing = options.curvature_spacing * radii[0];
     let Some(sample) = VertexSample::of(surface, spacing) else {
-        let every = surface.used_vertices().collect();
-        return run_cascade_in_chunks(&[curvature], every, CHUNK, 1, options.backend, observer);
+        let every: Vec<u32> = surface.used_vertices().collect();
+        check_projected_work(curvature, &every, limit, options.backend)?;
+        return run_within(curvature, &[curvature], every, limit, options, observer);
     };
     let loose = CurvatureDescriptor::new(
         surface,
@@ -114,26 +118,130 @@ fn cascade(
         options.curvature_threshold * SAMPLE_SLACK,
     )
     .named("curvature-sample");
-    let (near, mut stats) = run_cascade_in_chunks(
-        &[&loose],
-        sample.vertices,
-        CHUNK,
-        1,
-        options.backend,
-        observer,
-    )?;
+    check_projected_work(&loose, &sample.vertices, limit, options.backend)?;
+    let (near, mut stats) =
+        run_within(&loose, &[&loose], sample.vertices, limit, options, observer)?;
     let points: Vec<Vec3> = near.iter().map(|s| surface.position(s.point)).collect();
     let candidates = sample.grid.within(surface, &points, SAMPLE_REACH * spacing);
-    let (survivors, exact) = run_cascade_in_chunks(
-        &[curvature],
+    let counted = [&loose, curvature];
+    let (survivors, exact) = run_within(curvature, &counted, candidates, limit, options, observer)?;
+    stats.extend(exact);
+    Ok((survivors, stats))
+}
+
+/// Candidates the work estimate takes through the layers: spread evenly
+/// over the list, enough that a few costly vertices (a fan's hub) do not
+/// decide it, and about 1% of a mesh large enough to need the estimate.
+const WORK_SAMPLE: usize = 512;
+
+/// Refuses, before the pass, a pass of `descriptor` over `candidates`
+/// whose work, projected from a sample of them, passes `limit`: a fanned
+/// mesh is refused in a second rather than after the limit's worth of
+/// work. A mesh too small for a sample to say much is left to the limit.
+fn check_projected_work(
+    descriptor: &CurvatureDescriptor<'_>,
+    candidates: &[u32],
+    limit: f64,
+    backend: Threads,
+) -> Result<()> {
+    if candidates.len() < 4 * WORK_SAMPLE {
+        return Ok(());
+    }
+    let sample: Vec<u32> = candidates
+        .iter()
+        .step_by(candidates.len() / WORK_SAMPLE)
+        .copied()
+        .collect();
+    let probe = descriptor.fresh();
+    let (_, stats) = run_cascade_in_chunks(&[&probe], sample.clone(), CHUNK, 1, backend, &mut ())?;
+    let scale = candidates.len() as f64 / sample.len() as f64;
+    let work = probe.work() as f64 * scale;
+    let balls = stats.iter().map(|s| s.candidates).sum::<usize>() as f64 * scale;
+    if work > limit {
+        return Err(too_much_work(work, balls, limit));
+    }
+    Ok(())
+}
+
+/// Runs `descriptor`'s pass over `candidates`, stopping once the
+/// descriptors `counted` (this pass's and those before it) have measured
+/// more than `limit` triangles together. Checked between rounds of
+/// candidates, which are the same on any thread count: whether a search
+/// stops depends on the scene and the options only.
+fn run_within(
+    descriptor: &CurvatureDescriptor<'_>,
+    counted: &[&CurvatureDescriptor<'_>],
+    candidates: Vec<u32>,
+    limit: f64,
+    options: &MatchOptions,
+    observer: &mut dyn Observer,
+) -> Result<(Vec<Survivor>, Vec<LayerStats>)> {
+    let mut limited = WorkLimit {
+        observer,
+        counted,
+        limit,
+        balls: 0,
+        over: false,
+    };
+    let run = run_cascade_in_chunks(
+        &[descriptor],
         candidates,
         CHUNK,
         1,
         options.backend,
-        observer,
-    )?;
-    stats.extend(exact);
-    Ok((survivors, stats))
+        &mut limited,
+    );
+    match run {
+        Err(Error::Cancelled) if limited.over => {
+            Err(too_much_work(limited.work(), limited.balls as f64, limit))
+        }
+        other => other,
+    }
+}
+
+/// An observer that passes everything on, and stops the cascade once the
+/// descriptors it counts have passed the work limit.
+struct WorkLimit<'a, 'd> {
+    observer: &'a mut dyn Observer,
+    counted: &'a [&'a CurvatureDescriptor<'d>],
+    limit: f64,
+    /// Candidates taken through a layer, layer by layer, so far.
+    balls: usize,
+    over: bool,
+}
+
+impl WorkLimit<'_, '_> {
+    fn work(&self) -> f64 {
+        self.counted.iter().map(|d| d.work() as f64).sum()
+    }
+}
+
+impl Observer for WorkLimit<'_, '_> {
+    fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()> {
+        self.balls += stats.candidates;
+        self.observer.on_layer(stats)
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        if self.work() > self.limit {
+            self.over = true;
+            return ControlFlow::Break(());
+        }
+        self.observer.on_progress(progress)
+    }
+}
+
+/// The error for `work` triangles measured over `balls` candidate layers.
+fn too_much_work(work: f64, balls: f64, limit: f64) -> Error {
+    Error::CurvatureTooMuchWork {
+        work,
+        per_ball: work / balls.max(1.0),
+        limit,
+        advice: "simplify or remesh the scene (slivers and fans put thousands of triangles in \
+                 every ball), or search with the volume descriptor, whose work does not grow \
+                 with the triangles"
+            .into(),
+    }
 }
 
 /// Checks, before the welded surfaces are built, that a curvature search

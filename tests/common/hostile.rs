@@ -124,6 +124,32 @@ pub fn random_triangles(n: usize, seed: u64) -> Vec<u8> {
     stl(&triangles)
 }
 
+/// Case 16: a cylinder of radius 1 and height 2 whose side is `segments`
+/// slivers two units long and whose caps are fans of `segments` slivers
+/// about their centres: every vertex's ball holds thousands of triangles,
+/// and the curvature descriptor's work grows with the square of
+/// `segments`.
+pub fn fanned_cylinder(segments: usize) -> Vec<u8> {
+    let ring = |z: f32| -> Vec<[f32; 3]> {
+        (0..segments)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / segments as f64;
+                [a.cos() as f32, a.sin() as f32, z]
+            })
+            .collect()
+    };
+    let (bottom, top) = (ring(0.0), ring(2.0));
+    let mut triangles = Vec::with_capacity(4 * segments);
+    for i in 0..segments {
+        let j = (i + 1) % segments;
+        triangles.push([bottom[i], bottom[j], top[j]]);
+        triangles.push([bottom[i], top[j], top[i]]);
+        triangles.push([[0.0, 0.0, 2.0], top[i], top[j]]);
+        triangles.push([[0.0, 0.0, 0.0], bottom[j], bottom[i]]);
+    }
+    stl(&triangles)
+}
+
 /// Case 7: a tiny tetrahedron (1e-6) beside a triangle a million units
 /// away: no resolution makes the tetrahedron's voxels fine enough.
 pub fn tiny_part_in_a_wide_scene() -> Vec<u8> {

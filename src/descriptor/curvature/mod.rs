@@ -43,6 +43,7 @@ use crate::descriptor::Anchors;
 use crate::math::Vec3;
 use bounds::{BOUND_MARGIN, gaussian_bounds};
 use neighbourhood::{add_cut_areas, add_cut_edges, gather, grow_layer};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The curvature descriptor of a scene's surface against a template's.
 pub struct CurvatureDescriptor<'a> {
@@ -54,6 +55,10 @@ pub struct CurvatureDescriptor<'a> {
     /// r_k^2: the scale of every value.
     scale: f64,
     threshold: f64,
+    /// Triangles the layers have measured so far (gathered into a
+    /// neighbourhood or clipped by a sphere): what the search's time
+    /// follows, counted so that it can be bounded.
+    work: AtomicU64,
 }
 
 /// One layer of the neighbourhood of a vertex.
@@ -84,13 +89,31 @@ impl<'a> CurvatureDescriptor<'a> {
             template: template.iter().map(|g| g * scale).collect(),
             scale,
             threshold,
+            work: AtomicU64::new(0),
         }
+    }
+
+    /// Triangles measured by every layer computed so far: those a
+    /// neighbourhood gathered, and those a sphere cut, once per layer.
+    pub fn work(&self) -> u64 {
+        self.work.load(Ordering::Relaxed)
     }
 
     /// The same descriptor reported under another stage name (a pass over
     /// a sample of the vertices, say).
     pub fn named(self, name: &'static str) -> CurvatureDescriptor<'a> {
         CurvatureDescriptor { name, ..self }
+    }
+
+    /// The same descriptor with nothing measured yet: a probe whose work
+    /// is counted apart.
+    pub fn fresh(&self) -> CurvatureDescriptor<'a> {
+        CurvatureDescriptor {
+            radii: self.radii.clone(),
+            template: self.template.clone(),
+            work: AtomicU64::new(0),
+            ..*self
+        }
     }
 
     /// The Gaussian curvature of `surface` at vertex `v` for every radius:
@@ -137,7 +160,10 @@ impl OnionDescriptor for CurvatureDescriptor<'_> {
     }
 
     fn extend(&self, point: u32, layer: usize, state: &mut CurvatureState) -> f64 {
+        let gathered = state.region.len();
         let ball = gather(self.surface, point, self.radii[layer], state);
+        let measured = state.region.len() - gathered + state.cut.len();
+        self.work.fetch_add(measured as u64, Ordering::Relaxed);
         let (sums, cut_area) = add_cut_edges(self.surface, &ball, state);
         // Most points are rejected here, before the cut triangles' areas
         // are clipped.
