@@ -24,10 +24,15 @@ def template_report(cli, template_path, *extra):
     return json.loads(found.stdout)["template"]
 
 
-def write_scene(out, scene, truth, radius):
+def write_scene(out, scene, truth, radius, symmetries=None):
     """scene.glb and truth.json under `out`; `truth` lists {node, transform}
-    and `radius` is r_k, which scales the scorer's tolerance."""
+    and `radius` is r_k, which scales the scorer's tolerance. `symmetries`
+    (4x4 lists in template coordinates) map the template onto itself: a
+    copy placed by one of them is found too."""
     scene.export(os.path.join(out, "scene.glb"))
+    truth_json = {"template": "template.glb", "scene": "scene.glb", "instances": truth,
+                  "tolerance": 0.2, "template_radius": radius}
+    if symmetries:
+        truth_json["template_symmetries"] = symmetries
     with open(os.path.join(out, "truth.json"), "w") as f:
-        json.dump({"template": "template.glb", "scene": "scene.glb", "instances": truth,
-                   "tolerance": 0.2, "template_radius": radius}, f)
+        json.dump(truth_json, f)
