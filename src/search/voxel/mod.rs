@@ -1,6 +1,7 @@
 //! The voxel pipeline, in the order it runs:
 //! - `prepare`: the template's side, once: its lattice, grid, signatures
-//!   and a verifier per anchor;
+//!   (`signatures`: a model's averaged over the grid's phase) and a
+//!   verifier per anchor;
 //! - the plan: which parts can hold a copy and which are searched side by
 //!   side (`parts`, `waves`), which copy others and are not searched
 //!   (`congruent_parts`), which are too large for one grid (`windows`);
@@ -16,6 +17,7 @@ mod near_vertices;
 mod parts;
 mod place;
 mod prepare;
+mod signatures;
 mod waves;
 mod whole;
 mod windows;

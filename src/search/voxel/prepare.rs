@@ -4,15 +4,16 @@
 //! of that holds of the memory budget.
 
 use super::near_vertices::{self, template_gap};
+use super::signatures::{Signatures, signatures};
 use crate::align::SurfaceSamples;
 use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
-use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{SphericalTransform, VolumeDescriptor};
 use crate::error::{MemoryEstimate, Result};
 use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::{TriMesh, connected_components};
-use crate::options::{DescriptorKind, MatchOptions};
+use crate::options::MatchOptions;
 use crate::scene::{Lattice, Parts, Scene};
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
@@ -75,8 +76,10 @@ impl<'a> PartSearch<'a> {
         // The balls' tables are built once: read at the template's one
         // point, then bound to each part's layout.
         let balls = VolumeDescriptor::unbound_balls(template.radii(), voxel, options.backend);
-        let (template_volume, template_harmonics) =
-            signatures(&template, &balls, &transform, options);
+        let Signatures {
+            volume: template_volume,
+            harmonics: template_harmonics,
+        } = signatures(source, &template, &balls, &transform, options)?;
         let max_hidden =
             options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. }));
         let verifiers = verifiers(&template, &radii_voxels, max_hidden, options);
@@ -104,30 +107,6 @@ impl<'a> PartSearch<'a> {
             lattice,
         })
     }
-}
-
-/// Per anchor, the template's volume signature and, unless only the volume
-/// is searched, its harmonics one.
-fn signatures(
-    template: &VoxelTemplate,
-    balls: &[Ball],
-    transform: &SphericalTransform,
-    options: &MatchOptions,
-) -> (Vec<Vec<f64>>, Option<Vec<Vec<HarmonicsSignature>>>) {
-    let (solid, backend) = (template.voxels().solid(), options.backend);
-    let volume = template
-        .anchors()
-        .iter()
-        .map(|&a| VolumeDescriptor::describe_with(solid, a, balls, backend))
-        .collect();
-    let harmonics = (options.descriptor != DescriptorKind::Volume).then(|| {
-        template
-            .anchors()
-            .iter()
-            .map(|&a| HarmonicsDescriptor::describe(solid, a, template.radii(), transform, backend))
-            .collect()
-    });
-    (volume, harmonics)
 }
 
 /// A verifier placed by each of the template's anchors.
