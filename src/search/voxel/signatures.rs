@@ -22,9 +22,8 @@ use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescripto
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::options::{DescriptorKind, MatchOptions};
-use crate::scene::PartVoxels;
 use crate::template::{TemplateSource, VoxelTemplate};
-use crate::voxel::{Ball, Solid};
+use crate::voxel::{Ball, Solid, voxelize};
 
 /// Per anchor, the template's volume signature and, unless only the volume
 /// is searched, its harmonics one.
@@ -56,8 +55,8 @@ pub(super) fn signatures(
         // The grid is padded by a voxel on every side: a quarter voxel's
         // shift stays inside it.
         let shifted = model.map_positions(|p| p + shift)?;
-        let voxels = PartVoxels::build(&shifted, spec, options.backend);
-        let these = read(voxels.solid());
+        // The solid only: the signatures need no skin.
+        let these = read(&Solid::new(voxelize(&shifted, spec, options.backend)));
         sum = Some(match sum {
             None => these,
             Some(sum) => sum.plus(these),
