@@ -10,10 +10,13 @@ and near twins that differ only in their top (a setback moved to a
 corner, a setback of another shape, a gable roof), beside towers of other
 sizes, all standing on the slab. No tower holds the template whole (a
 plain box of its footprint and height would: that is part-in-whole, not a
-near twin).
+near twin). With --variants, taller and shorter variants of the template
+stand among them: a taller one holds the template whole, which the default
+search reports as "part of a larger whole", the paper's part-in-whole; score
+those scenes with --whole-copies.
 
   python3 scripts/make-city-scenes.py OUT [--seed 1] [--copies 3]
-      [--twins 2] [--others 12] [--ground 600]
+      [--twins 2] [--others 12] [--variants 0] [--ground 600] [--upright]
 
 Needs numpy and trimesh, and a release build of the CLI (for the
 template's radius in truth.json).
@@ -75,6 +78,8 @@ def main():
     p.add_argument("--copies", type=int, default=3)
     p.add_argument("--twins", type=int, default=2, help="near twins of each other kind")
     p.add_argument("--others", type=int, default=12, help="towers of other sizes")
+    p.add_argument("--variants", type=int, default=0,
+                   help="taller and shorter variants of the template, this many of each")
     p.add_argument("--ground", type=float, default=600.0, help="side of the ground slab (m)")
     p.add_argument("--kind", choices=KINDS, help="the template's kind (default: drawn)")
     p.add_argument("--upright", action="store_true",
@@ -94,7 +99,12 @@ def main():
     # part-in-whole, reported as "part of a larger whole", not a near twin.
     # Neither is drawn.
     others = [(k, w, d, h, top) for k in KINDS if k not in (kind, "plain") for _ in range(a.twins)]
-    while len(others) < a.twins * (len(KINDS) - 2) + a.others:
+    # Taller and shorter variants of the template's own kind: the same top
+    # on a longer or a shorter shaft.
+    for _ in range(a.variants):
+        for stretch in (rng.uniform(1.15, 1.4), rng.uniform(0.6, 0.85)):
+            others.append((kind, w, d, top + (h - top) * stretch, top))
+    while len(others) < a.twins * (len(KINDS) - 2) + 2 * a.variants + a.others:
         ow, od = rng.uniform(10, 40, 2)
         oh = rng.uniform(20, 150)
         if oh >= h and min(ow, od) >= min(w, d) and max(ow, od) >= max(w, d):
@@ -133,7 +143,8 @@ def main():
         symmetries = [np.eye(4).tolist(), half.tolist()]
     write_scene(a.out, scene, truth, radius, symmetries)
     print(f"{a.out}: {kind} tower {w:.0f} x {d:.0f} x {h:.0f} m, {len(truth)} copies among "
-          f"{len(towers) - len(truth)} others ({(len(KINDS) - 2) * a.twins} near twins), "
+          f"{len(towers) - len(truth)} others ({(len(KINDS) - 2) * a.twins} near twins, "
+          f"{2 * a.variants} taller or shorter), "
           f"{len(scene.faces)} triangles")
 
 
