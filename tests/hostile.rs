@@ -644,7 +644,7 @@ fn case_15_a_huge_part_lists_only_the_windows_it_needs() {
 fn case_16_the_curvature_search_bounds_its_work() {
     let dir = scratch("fanned");
     let fanned = write(&dir, "fanned.stl", hostile::fanned_cylinder(24_000));
-    let started = Instant::now();
+    // Past 20 s, cli_within fails the test.
     let out = cli_within(
         &[
             "match",
@@ -662,7 +662,6 @@ fn case_16_the_curvature_search_bounds_its_work() {
         err.contains("curvature search would measure") && err.contains("remesh"),
         "{err}"
     );
-    assert!(started.elapsed() < Duration::from_secs(20));
 
     let search_fan = |segments, limit: f64, backend, observer: &mut dyn Observer| {
         let mesh = load(&hostile::fanned_cylinder(segments), None).unwrap();

@@ -152,9 +152,9 @@ fn check_projected_work(
         .step_by(candidates.len() / WORK_SAMPLE)
         .copied()
         .collect();
-    let probe = descriptor.fresh();
-    let (_, stats) = run_cascade_in_chunks(&[&probe], sample.clone(), CHUNK, 1, backend, &mut ())?;
     let scale = candidates.len() as f64 / sample.len() as f64;
+    let probe = descriptor.fresh();
+    let (_, stats) = run_cascade_in_chunks(&[&probe], sample, CHUNK, 1, backend, &mut ())?;
     let work = probe.work() as f64 * scale;
     let balls = stats.iter().map(|s| s.candidates).sum::<usize>() as f64 * scale;
     if work > limit {
