@@ -122,6 +122,9 @@ pub struct SurfaceSamples {
     /// The farthest sample from the centroid: how far a turn moves the rim.
     reach: f64,
     axes: [Vec3; 3],
+    /// The axis the samples are nearly a body of revolution about, if any
+    /// (see [`REVOLUTION_SHARE`]), with what breaks the symmetry.
+    revolution: Option<Revolution>,
     /// The triangle each point lies on.
     sources: Vec<u32>,
     /// The piece (a shell of the template) each point lies on, where
@@ -181,17 +184,20 @@ impl SurfaceSamples {
                 }
             }
         }
-        let (_, axes) = symmetric_eigen(m);
+        let (moments, axes) = symmetric_eigen(m);
         let reach = points
             .iter()
             .map(|p| p.distance(centroid))
             .fold(0.0, f64::max);
+        let revolution = revolution_axis(moments)
+            .and_then(|k| Revolution::new(&points, &normals, axes[k], centroid, reach));
         SurfaceSamples {
             points,
             normals,
             centroid,
             reach,
             axes,
+            revolution,
             sources,
             pieces: Vec::new(),
         }
@@ -452,8 +458,246 @@ pub fn align(
             }
         }
     }
-    icp(samples, scene, best.pose, voxel, FULL)
+    let full = icp(samples, scene, best.pose, voxel, FULL);
+    match &samples.revolution {
+        Some(revolution) if full.misfit > EXACT_MISFIT => {
+            about_revolution_axis(samples, scene, full, revolution, voxel)
+        }
+        _ => full,
+    }
 }
+
+/// What makes a body of near revolution turn one way: its axis, a point
+/// on it, and the samples off every surface of revolution about it.
+#[derive(Clone, Debug)]
+struct Revolution {
+    axis: Vec3,
+    pivot: Vec3,
+    /// Samples whose normal line misses the axis by more than
+    /// [`FEATURE_SHARE`] of the reach: the side of a boss, a pin's hole
+    /// across the axis. A facet of a polygonal drum misses it by less.
+    features: Vec<u32>,
+}
+
+impl Revolution {
+    /// The axis fitted from the principal `axis` by the normal lines, or
+    /// None where they meet no axis (more than half the samples break it).
+    fn new(
+        points: &[Vec3],
+        normals: &[Vec3],
+        axis: Vec3,
+        centroid: Vec3,
+        reach: f64,
+    ) -> Option<Self> {
+        let (mut axis, mut pivot) = (axis.normalize(), centroid);
+        for _ in 0..AXIS_FITS {
+            pivot = axis_point(points, normals, axis, pivot, centroid)?;
+            axis = axis_direction(points, normals, pivot, axis);
+        }
+        let features: Vec<u32> = points
+            .iter()
+            .zip(normals)
+            .enumerate()
+            .filter(|(_, (p, n))| {
+                let w = axis.cross(**n);
+                w.length() > 0.1 && (**p - pivot).dot(w.normalize()).abs() > FEATURE_SHARE * reach
+            })
+            .map(|(i, _)| i as u32)
+            .collect();
+        (2 * features.len() <= points.len()).then_some(Revolution {
+            axis,
+            pivot,
+            features,
+        })
+    }
+}
+
+/// `full`, or the template turned about its axis of near revolution to
+/// where what breaks the symmetry lies clearly nearer the scene. ICP
+/// brings back only a few degrees about such an axis: a piston's pin
+/// bosses, a wheel's valve, are too small a hold on the turn. So every turn
+/// that moves the rim by half a voxel is scored on the feature samples
+/// alone (the rest lie alike at every turn), and the best is aligned.
+fn about_revolution_axis(
+    samples: &SurfaceSamples,
+    scene: &SurfaceIndex,
+    full: Alignment,
+    revolution: &Revolution,
+    voxel: f64,
+) -> Alignment {
+    let features = &revolution.features;
+    if features.is_empty() {
+        return full;
+    }
+    // A feature's normal runs along the turn, so a turn's error shows in
+    // full: turns half a voxel apart at the rim put the nearest within a
+    // quarter voxel of its place, and the scan counts within half a voxel.
+    let lands_within = |pose: &Rigid, p: Vec3, within: f64| {
+        scene
+            .nearest(pose.apply(p), voxel)
+            .is_some_and(|n| n.2 <= within * voxel)
+    };
+    let lands = |pose: &Rigid, p: Vec3| lands_within(pose, p, 0.25);
+    let stride = (features.len() / REVOLUTION_SAMPLES).max(1);
+    let on_features = |pose: &Rigid, stride: usize, within: f64| {
+        features
+            .iter()
+            .step_by(stride)
+            .filter(|&&i| lands_within(pose, samples.points[i as usize], within))
+            .count()
+    };
+    let scored = features.len().div_ceil(stride);
+    let gain = |n: usize| (n as f64 * REVOLUTION_GAIN).ceil().max(MIN_REVOLUTION_GAIN) as usize;
+    let steps = ((std::f64::consts::TAU * samples.reach / (0.5 * voxel)).ceil() as usize)
+        .clamp(MIN_REVOLUTION_STEPS, MAX_REVOLUTION_STEPS);
+    let mut best = (on_features(&full.pose, stride, 0.5) + gain(scored), None);
+    // Nearest turns first: of turns alike (a piston's two bosses), the
+    // least.
+    let nearest_first = (1..=steps / 2).flat_map(|k| [k as f64, -(k as f64)]);
+    for step in nearest_first.take(steps - 1) {
+        let angle = std::f64::consts::TAU * step / steps as f64;
+        let turned = full
+            .pose
+            .after(&Rigid::turn(revolution.pivot, revolution.axis, angle));
+        let n = on_features(&turned, stride, 0.5);
+        if n > best.0 {
+            best = (n, Some(turned));
+        }
+    }
+    let Some(turned) = best.1 else {
+        return full;
+    };
+    let turned = best_shift(samples, scene, turned, revolution.axis, voxel);
+    let refined = icp(samples, scene, turned, voxel, FULL);
+    // The features land clearly better, and the rest no worse.
+    let on_all = |pose: &Rigid| samples.points.iter().filter(|&&p| lands(pose, p)).count();
+    let better_features = on_features(&refined.pose, 1, 0.25)
+        >= on_features(&full.pose, 1, 0.25) + gain(features.len());
+    if better_features && on_all(&refined.pose) >= on_all(&full.pose) {
+        refined
+    } else {
+        full
+    }
+}
+
+/// Which principal axis, by its moment, the samples are nearly a body of
+/// revolution about: the other two moments within [`REVOLUTION_SHARE`] of
+/// each other, and this one clear of them by [`REVOLUTION_CLEAR`] (a
+/// cube's or a sphere's three alike name no axis). Only a start: the
+/// normal lines fit the axis and say whether there is one.
+fn revolution_axis(moments: [f64; 3]) -> Option<usize> {
+    let within = |a: f64, b: f64, share: f64| a.min(b) >= share * a.max(b);
+    (0..3).find(|&k| {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        within(moments[i], moments[j], REVOLUTION_SHARE)
+            && !within(
+                moments[k],
+                0.5 * (moments[i] + moments[j]),
+                REVOLUTION_CLEAR,
+            )
+    })
+}
+
+/// Samples within [`AXIS_TRIM`] times the median of `off` of them: the
+/// rest (a boss on one side) break the symmetry and would pull the fit.
+fn trimmed<T: Copy>(items: &[T], off: impl Fn(T) -> f64) -> Vec<T> {
+    let mut offs: Vec<f64> = items.iter().map(|&t| off(t)).collect();
+    offs.sort_by(f64::total_cmp);
+    let keep = AXIS_TRIM * offs.get(offs.len() / 2).copied().unwrap_or(0.0).max(1e-12);
+    items.iter().copied().filter(|&t| off(t) <= keep).collect()
+}
+
+/// The point of the axis along `axis` that lies level with `level`. On a
+/// surface of revolution every normal line meets the axis, so a point c
+/// of it makes (p - c) . (axis x n) vanish at every sample: c by trimmed
+/// least squares, from the fit `near` before. None where no sample says
+/// (normals along the axis, a disc).
+fn axis_point(
+    points: &[Vec3],
+    normals: &[Vec3],
+    axis: Vec3,
+    near: Vec3,
+    level: Vec3,
+) -> Option<Vec3> {
+    // Samples whose normal runs nearly along the axis (a flat end) say
+    // nothing of where it is.
+    let sides: Vec<(Vec3, Vec3)> = points
+        .iter()
+        .zip(normals)
+        .filter_map(|(&p, &n)| {
+            let w = axis.cross(n);
+            (w.length() > 0.1).then(|| (p, w.normalize()))
+        })
+        .collect();
+    // Normal equations, with a a^T pinning c's component along the axis.
+    let mut m = DMat3::from_cols(axis * axis.x, axis * axis.y, axis * axis.z);
+    let mut rhs = axis * axis.dot(level);
+    for (p, w) in trimmed(&sides, |(p, w)| (p - near).dot(w).abs()) {
+        m += DMat3::from_cols(w * w.x, w * w.y, w * w.z);
+        rhs += w * w.dot(p);
+    }
+    (m.determinant().abs() >= 1e-9).then(|| m.inverse() * rhs)
+}
+
+/// The axis through `point` nearest `axis` that the normal lines meet:
+/// a . ((p - c) x n) vanishes for each, so a is the least eigenvector of
+/// the trimmed sum of those products. Flat ends agree with every axis
+/// along their normal, so they stay.
+fn axis_direction(points: &[Vec3], normals: &[Vec3], point: Vec3, axis: Vec3) -> Vec3 {
+    let arms: Vec<Vec3> = points
+        .iter()
+        .zip(normals)
+        .map(|(&p, &n)| (p - point).cross(n))
+        .collect();
+    let mut m = [[0.0; 3]; 3];
+    for u in trimmed(&arms, |u| u.dot(axis).abs()) {
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                *x += u[i] * u[j];
+            }
+        }
+    }
+    let (_, vectors) = symmetric_eigen(m);
+    let least = vectors[2];
+    if least.dot(axis) < 0.0 { -least } else { least }
+}
+
+/// Fits of the axis, each trimming what the last left far off.
+const AXIS_FITS: usize = 6;
+
+/// Samples farther off the axis's fit than this many times the median are
+/// trimmed from the next.
+const AXIS_TRIM: f64 = 3.0;
+
+/// Two principal moments within this share of each other make the third
+/// axis a start for one of near revolution: a boss on one side (a wheel's
+/// valve, a piston's pin bosses) parts them by a tenth or more.
+const REVOLUTION_SHARE: f64 = 0.75;
+
+/// ...if the third moment is not within this share of theirs.
+const REVOLUTION_CLEAR: f64 = 0.9;
+
+/// Turns scored about an axis of near revolution, the identity included:
+/// half a voxel apart at the rim, within these bounds.
+const MIN_REVOLUTION_STEPS: usize = 24;
+const MAX_REVOLUTION_STEPS: usize = 1440;
+
+/// A turn about an axis of near revolution must lay this share of the
+/// feature samples more on the scene, and at least this many.
+const REVOLUTION_GAIN: f64 = 0.1;
+const MIN_REVOLUTION_GAIN: f64 = 3.0;
+
+/// A sample whose normal line misses the axis of near revolution by this
+/// share of the reach breaks the symmetry.
+const FEATURE_SHARE: f64 = 0.1;
+
+/// Feature samples each turn about an axis of near revolution is scored
+/// on, at most.
+const REVOLUTION_SAMPLES: usize = 512;
+
+/// A full fit this close (mean distance, voxels) is exact: no turn can
+/// better it.
+const EXACT_MISFIT: f64 = 0.01;
 
 /// Turns tried about each principal axis, the identity included. Finer
 /// steps would catch a body of revolution placed turned about its axis by
@@ -964,6 +1208,74 @@ mod tests {
         let a = align(&samples, &index(&scene, voxel), start, voxel);
         assert!(angle(a.pose.rotation, truth.rotation).to_degrees() < 0.5);
         assert!((a.pose.translation - truth.translation).length() < 0.05);
+    }
+
+    /// A ring (a torus about z) with a small boss on its rim, as a piston
+    /// has pin bosses: a body of revolution but for the boss.
+    fn bossed_ring() -> TriMesh {
+        let mut ring = crate::mesh::shapes::torus(Vec3::ZERO, 3.0, 0.8, 64, 16);
+        ring.append(&cuboid(
+            Vec3::new(3.6, -0.3, -0.3),
+            Vec3::new(4.2, 0.3, 0.3),
+        ));
+        ring
+    }
+
+    /// A boss large and high enough to tilt the principal axes does not
+    /// tilt the axis of revolution the normal lines meet.
+    #[test]
+    fn the_axis_of_revolution_is_fitted_past_a_boss_that_tilts_the_moments() {
+        let mut ring = crate::mesh::shapes::torus(Vec3::ZERO, 3.0, 0.8, 64, 16);
+        ring.append(&cuboid(Vec3::new(3.6, -0.4, 0.6), Vec3::new(4.4, 0.4, 1.4)));
+        let samples = SurfaceSamples::new(&corners(&ring), 4000, |_| true);
+        let tilt = |v: Vec3| {
+            v.normalize()
+                .dot(Vec3::Z)
+                .abs()
+                .min(1.0)
+                .acos()
+                .to_degrees()
+        };
+        let principal = samples
+            .axes
+            .iter()
+            .map(|&a| tilt(a))
+            .fold(f64::MAX, f64::min);
+        let fitted = samples.revolution.as_ref().expect("an axis of revolution");
+        assert!(
+            principal > 1.0,
+            "the boss tilts the moments by {principal} degrees"
+        );
+        assert!(
+            tilt(fitted.axis) < 0.05,
+            "fitted {} degrees off",
+            tilt(fitted.axis)
+        );
+        assert!((fitted.pivot - fitted.axis * fitted.pivot.dot(fitted.axis)).length() < 0.01);
+        assert!(!fitted.features.is_empty());
+    }
+
+    /// A ring found turned about its axis by more than ICP brings back
+    /// (the boss is its only hold on the turn) is turned back onto the
+    /// boss.
+    #[test]
+    fn a_ring_found_turned_about_its_axis_is_turned_back() {
+        let template = bossed_ring();
+        let tris = corners(&template);
+        let truth = Rigid {
+            rotation: DMat3::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.5, 0.2, -0.7)),
+            translation: Vec3::new(5.0, -1.0, 2.0),
+        };
+        let scene = template.map_positions(|p| truth.apply(p)).unwrap();
+        let voxel = 0.1;
+        let samples = SurfaceSamples::new(&tris, 4000, |_| true);
+        for degrees in [9.0f64, -23.0, 140.0] {
+            let turned = Rigid::turn(Vec3::ZERO, Vec3::Z, degrees.to_radians());
+            let a = align(&samples, &index(&scene, voxel), truth.after(&turned), voxel);
+            let off = angle(a.pose.rotation, truth.rotation).to_degrees();
+            assert!(off < 0.5, "started {degrees} degrees off, ended {off}");
+            assert!(a.misfit < 0.01, "{}", a.misfit);
+        }
     }
 
     /// The same plate found lying on its side (a quarter turn about its
