@@ -222,6 +222,18 @@ pub struct MatchOptions {
     #[cfg_attr(feature = "serde", serde(skip))]
     #[cfg_attr(feature = "cli", arg(skip = MatchOptions::DEFAULT.max_curvature_work))]
     pub max_curvature_work: f64,
+    /// Volume and harmonics: refuse a search whose distinct parts would
+    /// take more work than this (about nanoseconds of one core), with
+    /// [`crate::Error::PartsTooMuchWork`], judged from a sample of the
+    /// parts searched first.
+    ///
+    /// Each distinct part that could hold a copy is searched on its own,
+    /// a few milliseconds each; tens of thousands of near twins take
+    /// minutes. The embedder's setting, not on the CLI or in JavaScript.
+    /// Default: 3e11, about five minutes of one core.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "cli", arg(skip = MatchOptions::DEFAULT.max_part_work))]
+    pub max_part_work: f64,
     /// Serial or parallel. Default: parallel. The CLI sets it from
     /// `--threads`; JavaScript from the build it loaded.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -248,6 +260,7 @@ impl MatchOptions {
         keep_near_twins: false,
         clutter: ClutterPolicy::DEFAULT,
         max_curvature_work: (1u64 << 30) as f64,
+        max_part_work: 3.0e11,
         backend: Threads::Parallel,
     };
 
@@ -266,11 +279,16 @@ impl MatchOptions {
         positive("harmonics threshold", self.harmonics_threshold)?;
         positive("curvature threshold", self.curvature_threshold)?;
         positive("group radius", self.group_radius)?;
-        if self.max_curvature_work.is_nan() || self.max_curvature_work <= 0.0 {
-            return Err(Error::invalid_option(
-                "max curvature work",
-                format!("must be a positive number, got {}", self.max_curvature_work),
-            ));
+        for (name, limit) in [
+            ("max curvature work", self.max_curvature_work),
+            ("max part work", self.max_part_work),
+        ] {
+            if limit.is_nan() || limit <= 0.0 {
+                return Err(Error::invalid_option(
+                    name,
+                    format!("must be a positive number, got {limit}"),
+                ));
+            }
         }
         positive("surface tolerance", self.surface_tolerance)?;
         if self.surface_tolerance > 1.0 {

@@ -696,3 +696,60 @@ fn case_16_the_curvature_search_bounds_its_work() {
     assert!(matches!(e, Error::CurvatureTooMuchWork { .. }), "{e}");
     assert_eq!(layers, 0, "the search started before it was refused");
 }
+
+/// Case 17: twenty thousand distinct near twins of a tetrahedron, each its
+/// own part. Each part is searched on its own (about 25 ms of one core,
+/// most of it verifying and aligning the near twin), so the search would
+/// take minutes. Refused from a sample of the parts searched first; with
+/// parts too few to sample, stopped by the work counted as it is done. A
+/// search within the limit, sample and all, finds what an unlimited one
+/// finds.
+#[test]
+fn case_17_the_parts_search_bounds_its_work() {
+    let dir = scratch("jittered");
+    let scene = write(
+        &dir,
+        "tetrahedra.stl",
+        hostile::jittered_tetrahedra(20_000, 2),
+    );
+    let template_faces = hostile::right_tetrahedron([0.575, 0.498, 0.425], [0.0; 3]);
+    let template = write(&dir, "template.stl", hostile::stl(&template_faces));
+    // Past 20 s, cli_within fails the test.
+    let out = cli_within(
+        &["match", &scene, "--template", &template],
+        Duration::from_secs(20),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("distinct parts would take") && err.contains("select it with a sphere"),
+        "{err}"
+    );
+
+    let search_tetrahedra = |count, limit: f64, observer: &mut dyn Observer| {
+        let mesh = load(&hostile::jittered_tetrahedra(count, 3), None).unwrap();
+        let scene = Scene::new(mesh, &SceneOptions::DEFAULT).unwrap();
+        let template = load(&hostile::stl(&template_faces), None).unwrap();
+        let mut options = MatchOptions::DEFAULT;
+        options.max_part_work = limit;
+        search(&scene, &TemplateSource::Model(template), &options, observer)
+    };
+    // Enough parts to sample: refused once the sample is searched (the
+    // CLI above shows it is refused early).
+    let e = search_tetrahedra(200, 1e9, &mut ()).unwrap_err();
+    assert!(
+        matches!(e, Error::PartsTooMuchWork { parts: 190.., .. }),
+        "{e}"
+    );
+    // Too few to sample: the work counted stops the search.
+    let e = search_tetrahedra(60, 1e8, &mut ()).unwrap_err();
+    assert!(
+        matches!(e, Error::PartsTooMuchWork { parts: 50..=60, .. }),
+        "{e}"
+    );
+    // Within the limit, the sampled parts' instances are the same.
+    let unlimited = search_tetrahedra(200, f64::INFINITY, &mut ()).unwrap();
+    let within = search_tetrahedra(200, 1e11, &mut ()).unwrap();
+    assert!(!unlimited.instances.is_empty());
+    assert_eq!(within.instances, unlimited.instances);
+}

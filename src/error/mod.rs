@@ -198,6 +198,25 @@ pub enum Error {
         advice: String,
     },
 
+    /// Searching the scene's distinct parts would take more work than the
+    /// limit allows, judged from a sample of them searched first: every
+    /// part that could hold a copy and copies no other is searched on its
+    /// own, a few milliseconds each.
+    #[error(
+        "searching the scene's {parts} distinct parts would take about {work:.3e} units of work ({time} of one core), above the limit of {limit:.3e}; {advice}",
+        time = one_core(*work)
+    )]
+    PartsTooMuchWork {
+        /// The distinct parts to search.
+        parts: usize,
+        /// Their work, projected (about nanoseconds of one core).
+        work: f64,
+        /// The limit.
+        limit: f64,
+        /// What would work.
+        advice: String,
+    },
+
     /// The parts a search would voxelize one by one have bounding boxes far
     /// larger together than the scene's: they overlap many times over
     /// (large triangles crossing each other, each its own part), and each
@@ -411,5 +430,13 @@ pub(crate) fn length(x: f64) -> String {
         format!("{x:.4}")
     } else {
         format!("{x:.3e}")
+    }
+}
+
+/// Work in about nanoseconds of one core, as a time a person reads.
+fn one_core(work: f64) -> String {
+    match work / 1e9 {
+        s if s < 90.0 => format!("about {s:.0} s"),
+        s => format!("about {:.0} minutes", s / 60.0),
     }
 }

@@ -316,3 +316,40 @@ pub fn gltf_with_buffers_naming_one_file(uri: &str, buffers: usize, byte_length:
 /// home the cursor, print a false verdict, and set the clipboard (OSC 52).
 pub const TERMINAL_ATTACK: &str =
     "\u{1b}[2J\u{1b}[Hall good: 3 instances found\u{1b}]52;c;ZWNobyBwd25lZA==\u{7}";
+
+/// A right tetrahedron with legs `legs` along x, y and z from `at`.
+pub fn right_tetrahedron(legs: [f32; 3], at: [f32; 3]) -> Vec<[[f32; 3]; 3]> {
+    let [x, y, z] = at;
+    let v = [
+        [x, y, z],
+        [x + legs[0], y, z],
+        [x, y + legs[1], z],
+        [x, y, z + legs[2]],
+    ];
+    [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+        .map(|t: [usize; 3]| t.map(|i| v[i]))
+        .to_vec()
+}
+
+/// Case 17: `count` right tetrahedra on a lattice, each apart, with legs
+/// of 0.5 times 1 +- 0.25 drawn from `seed`: as many distinct near twins
+/// of a tetrahedron as there are parts.
+pub fn jittered_tetrahedra(count: usize, seed: u64) -> Vec<u8> {
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut draw = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let side = (count as f64).cbrt().ceil() as usize;
+    let mut triangles = Vec::with_capacity(4 * count);
+    for i in 0..count {
+        let at = [i % side, i / side % side, i / side / side].map(|k| k as f32);
+        let legs = [0; 3].map(|_| 0.5 * (1.0 + 0.25 * (2.0 * draw() - 1.0)));
+        triangles.extend(right_tetrahedron(legs, at));
+    }
+    stl(&triangles)
+}

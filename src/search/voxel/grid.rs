@@ -129,8 +129,10 @@ impl PartSearch<'_> {
             .cascade(voxels, candidates, anchors, found, runner)
             .await?;
         let started = now_ms();
-        let verified = self.verify(voxels, &survivors);
-        let instances = self.place(part, voxels, &verified, &survivors);
+        let (verified, checks) = self.verify(voxels, &survivors);
+        let (instances, aligned) = self.place(part, voxels, &verified, &survivors);
+        found.checks += checks;
+        found.aligned += aligned;
         found.add_stats(stats);
         found.timings.group += now_ms() - started;
         Ok(instances)

@@ -9,7 +9,9 @@
 //!   voxels, the candidates thinned to those near a vertex
 //!   (`near_vertices`);
 //! - `place`: the survivors verified by placement, grouped, and aligned on
-//!   the meshes.
+//!   the meshes;
+//! - `work`: what searching the distinct parts takes, judged from a sample
+//!   first and refused past the limit.
 
 mod congruent_parts;
 mod grid;
@@ -21,6 +23,7 @@ mod signatures;
 mod waves;
 mod whole;
 mod windows;
+mod work;
 
 use std::cell::RefCell;
 

@@ -8,6 +8,7 @@ use super::near_vertices::NearVertices;
 use super::prepare::PartSearch;
 use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share_wave_time};
 use super::windows::{Window, part_windows};
+use super::work::{PROBE_FROM, probe, too_much_work, work as part_work};
 use crate::budget::voxel_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, finished};
 use crate::clock::now_ms;
@@ -50,7 +51,8 @@ impl<'a> PartSearch<'a> {
     /// What each part of `originals` (indices into `parts`) found, by
     /// index: side by side, in waves that fit the memory budget together.
     /// On the CPU a wave's parts share the threads; on a device a layer is
-    /// one submission for all parts of a wave.
+    /// one submission for all parts of a wave. Many parts are judged by a
+    /// sample searched first ([`super::work`]).
     pub(super) async fn search_parts(
         &self,
         parts: &[(usize, &ScenePart)],
@@ -64,9 +66,44 @@ impl<'a> PartSearch<'a> {
             done: 0,
             total: originals.len(),
         };
+        let limit = self.options.max_part_work;
+        let mut work = 0.0;
+        let mut rest = originals.to_vec();
+        if originals.len() >= PROBE_FROM {
+            let probed = probe(originals);
+            for &k in &probed {
+                let (index, part) = parts[k];
+                let mut runner = Runner {
+                    observer,
+                    device,
+                    wave: None,
+                    held: self.held.clone(),
+                };
+                let found = self.part(index, part, &mut runner).await?;
+                work += part_work(&found);
+                searched[k] = Some(found);
+            }
+            let projected = work * originals.len() as f64 / probed.len() as f64;
+            if projected > limit {
+                return Err(too_much_work(originals.len(), projected, limit));
+            }
+            rest.retain(|k| searched[*k].is_none());
+            progress.done += probed.len();
+            report_progress(observer, &progress)?;
+        }
+        // The sample may misjudge the rest: the work done is checked
+        // between waves.
+        let mut add_work = |founds: &[&Found]| {
+            work += founds.iter().map(|f| part_work(f)).sum::<f64>();
+            match work > limit {
+                true => Err(too_much_work(originals.len(), work, limit)),
+                false => Ok(()),
+            }
+        };
         if let Some(device) = device {
-            for wave in self.waves(parts, originals, device.wave_grids()) {
+            for wave in self.waves(parts, &rest, device.wave_grids()) {
                 let founds = self.device_wave(parts, &wave, observer, device).await?;
+                add_work(&founds.iter().collect::<Vec<_>>())?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
@@ -75,7 +112,7 @@ impl<'a> PartSearch<'a> {
             }
             return Ok(searched);
         }
-        for wave in self.waves(parts, originals, CPU_WAVE_PARTS) {
+        for wave in self.waves(parts, &rest, CPU_WAVE_PARTS) {
             if let [(k, _)] = wave[..] {
                 let (index, part) = parts[k];
                 let mut runner = Runner {
@@ -84,9 +121,13 @@ impl<'a> PartSearch<'a> {
                     wave: None,
                     held: self.held.clone(),
                 };
-                searched[k] = Some(self.part(index, part, &mut runner).await?);
+                let found = self.part(index, part, &mut runner).await?;
+                add_work(&[&found])?;
+                searched[k] = Some(found);
             } else {
-                for ((k, _), found) in wave.iter().zip(self.cpu_wave(parts, &wave, observer)?) {
+                let founds = self.cpu_wave(parts, &wave, observer)?;
+                add_work(&founds.iter().collect::<Vec<_>>())?;
+                for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
             }

@@ -16,13 +16,18 @@ impl PartSearch<'_> {
     /// The placements that pass verification, anchor by anchor: each
     /// anchor's local bests among `survivors`, but for a blob where a copy
     /// already placed puts this anchor (that copy, seen from another
-    /// anchor).
-    pub(super) fn verify(&self, voxels: &PartVoxels, survivors: &[Survivor]) -> Vec<Verified> {
+    /// anchor); and how many placements were checked.
+    pub(super) fn verify(
+        &self,
+        voxels: &PartVoxels,
+        survivors: &[Survivor],
+    ) -> (Vec<Verified>, usize) {
         let (template, options) = (&self.template, self.options);
         let radii = template.radii();
         let voxel = voxels.grid().spec().voxel_size;
         let position = |p| voxels.position(p);
         let mut verified: Vec<Verified> = Vec::new();
+        let mut checks = 0;
         for (a, verifier) in self.verifiers.iter().enumerate() {
             let of_anchor: Vec<Survivor> = survivors
                 .iter()
@@ -43,6 +48,7 @@ impl PartSearch<'_> {
                     })
                 })
                 .collect();
+            checks += bests.len();
             let checked = options.backend.map_each(bests.len(), |b| {
                 let v = voxels.skin()[bests[b].point as usize];
                 let placement = verifier.check(
@@ -71,19 +77,19 @@ impl PartSearch<'_> {
                     .filter(|v| v.score >= options.verify_threshold),
             );
         }
-        verified
+        (verified, checks)
     }
 
     /// The instances `verified` placements make, grouped with the
     /// `survivors` they gather, aligned on `part`'s meshes, and kept where
-    /// the meshes agree at the exact pose.
+    /// the meshes agree at the exact pose; and how many were aligned.
     pub(super) fn place(
         &self,
         part: &ScenePart,
         voxels: &PartVoxels,
         verified: &[Verified],
         survivors: &[Survivor],
-    ) -> Vec<Instance> {
+    ) -> (Vec<Instance>, usize) {
         let options = self.options;
         let mut instances = group(
             verified,
@@ -108,7 +114,7 @@ impl PartSearch<'_> {
         if options.whole_copies {
             instances.retain(|i| i.whole == Some(true));
         }
-        instances
+        (instances, landed.len())
     }
 
     /// Says of each instance that passes the meshes' verdict whether it is

@@ -14,6 +14,10 @@ pub(super) struct Found {
     pub(super) stages: Vec<LayerStats>,
     pub(super) skin_voxels: usize,
     pub(super) windows: usize,
+    /// Placements verified, and instances aligned on the meshes: with the
+    /// layers' candidates, what the search's work is judged by.
+    pub(super) checks: usize,
+    pub(super) aligned: usize,
     pub(super) timings: Timings,
     /// Why harmonics layers went back to the CPU, the first time one did.
     pub(super) gpu_fallback: Option<String>,
@@ -26,6 +30,8 @@ impl Found {
         self.add_stats(part.stages.clone());
         self.skin_voxels += part.skin_voxels;
         self.windows += part.windows;
+        self.checks += part.checks;
+        self.aligned += part.aligned;
         let (t, p) = (&mut self.timings, &part.timings);
         t.voxelize += p.voxelize;
         t.match_ += p.match_;

@@ -1,0 +1,79 @@
+//! How much work a search of many distinct parts is, judged before most
+//! of it is done. Every distinct part that can hold a copy is voxelized,
+//! run through the layers, and its survivors verified and aligned: a few
+//! milliseconds each, so tens of thousands of near twins (jittered
+//! tetrahedra, a hundred thousand bolts each a little different) take
+//! minutes. A sample of the parts, spread over the list, is searched
+//! first; its work, projected over every part, is refused past
+//! [`crate::MatchOptions::max_part_work`]. The work searched so far is
+//! checked between waves too, where the sample misjudged.
+//!
+//! Work is counted from what the search did, not from a clock, so whether
+//! a search stops depends on the input only: layer candidates, verified
+//! placements and aligned instances, each weighted by what it costs one
+//! core here (in nanoseconds; see `docs/BENCHMARKS.md`).
+
+use super::waves::Found;
+use crate::error::Error;
+
+/// Parts searched first to judge the rest by, at most.
+pub(super) const PROBE_PARTS: usize = 32;
+
+/// Fewer distinct parts than this are not probed: their work is judged as
+/// it is done.
+pub(super) const PROBE_FROM: usize = 4 * PROBE_PARTS;
+
+/// A candidate through one volume layer (a few reads of the pyramid).
+const VOLUME_CANDIDATE: f64 = 250.0;
+
+/// A candidate through one harmonics layer (a sphere sampled and
+/// transformed).
+const HARMONICS_CANDIDATE: f64 = 16_000.0;
+
+/// A skin voxel of a part's grid (filled, skinned, its pyramid built).
+const SKIN_VOXEL: f64 = 300.0;
+
+/// A placement verified (poses counted, the best refined).
+const CHECK: f64 = 2.0e6;
+
+/// An instance aligned on the meshes (ICP and the fit).
+const ALIGNMENT: f64 = 7.0e6;
+
+/// The work `found` took, in about nanoseconds of one core.
+pub(super) fn work(found: &Found) -> f64 {
+    let layers: f64 = found
+        .stages
+        .iter()
+        .map(|s| {
+            let each = match s.descriptor {
+                "harmonics" => HARMONICS_CANDIDATE,
+                _ => VOLUME_CANDIDATE,
+            };
+            s.candidates as f64 * each
+        })
+        .sum();
+    layers
+        + found.skin_voxels as f64 * SKIN_VOXEL
+        + found.checks as f64 * CHECK
+        + found.aligned as f64 * ALIGNMENT
+}
+
+/// Up to [`PROBE_PARTS`] of `originals`, spread evenly over them.
+pub(super) fn probe(originals: &[usize]) -> Vec<usize> {
+    let n = originals.len();
+    let take = n.min(PROBE_PARTS);
+    (0..take).map(|i| originals[i * n / take]).collect()
+}
+
+/// The error for `work` projected over `parts` distinct parts.
+pub(super) fn too_much_work(parts: usize, work: f64, limit: f64) -> Error {
+    Error::PartsTooMuchWork {
+        parts,
+        work,
+        limit,
+        advice: "search a region of the scene (select it with a sphere, or crop the file), or \
+                 split the scene into smaller files: every distinct part that could hold a \
+                 copy is searched on its own"
+            .into(),
+    }
+}
