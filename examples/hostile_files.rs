@@ -19,7 +19,7 @@ fn main() -> std::io::Result<()> {
     let attack_uri = hostile::TERMINAL_ATTACK
         .replace('\u{1b}', "\\u001b")
         .replace('\u{7}', "\\u0007");
-    let files: [(&str, Vec<u8>); 13] = [
+    let files: [(&str, Vec<u8>); 15] = [
         (
             "escape-absolute.gltf",
             hostile::gltf_with_buffer("/etc/passwd", 1 << 30).into_bytes(),
@@ -61,6 +61,15 @@ fn main() -> std::io::Result<()> {
         (
             "fanned-cylinder-24000.stl",
             hostile::fanned_cylinder(24_000),
+        ),
+        // The work of many distinct parts: 20 000 near twins.
+        (
+            "tetrahedra-jittered-20000.stl",
+            hostile::jittered_tetrahedra(20_000, 2),
+        ),
+        (
+            "right-tetrahedron.stl",
+            hostile::stl(&hostile::right_tetrahedron([0.575, 0.498, 0.425], [0.0; 3])),
         ),
     ];
     for (name, bytes) in files {

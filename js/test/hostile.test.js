@@ -201,6 +201,19 @@ test('case 11: the curvature search on a cylinder of slivers and fans is refused
   );
 });
 
+test('case 12: twenty thousand distinct near twins of the template are refused from a sample of them', async (t) => {
+  const [scene, template] = await Promise.all([
+    file('tetrahedra-jittered-20000.stl'),
+    file('right-tetrahedron.stl'),
+  ]);
+  refused(
+    t,
+    'tetrahedra-jittered-20000.stl searched for right-tetrahedron.stl',
+    search(scene, () => Template.fromBytes(template)),
+    /searching the scene's \d+ distinct parts would take about/,
+  );
+});
+
 test('after every case, the same module still finds the demo scene\'s three instances', async (t) => {
   const [scene, template] = await Promise.all([
     readFile(new URL('scene.glb', demo)),
