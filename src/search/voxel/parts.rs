@@ -68,29 +68,18 @@ impl<'a> PartSearch<'a> {
         };
         let limit = self.options.max_part_work;
         let mut work = 0.0;
-        let mut rest = originals.to_vec();
         if originals.len() >= PROBE_FROM {
-            let probed = probe(originals);
-            for &k in &probed {
-                let (index, part) = parts[k];
-                let mut runner = Runner {
-                    observer,
-                    device,
-                    wave: None,
-                    held: self.held.clone(),
-                };
-                let found = self.part(index, part, &mut runner).await?;
-                work += part_work(&found);
-                searched[k] = Some(found);
-            }
-            let projected = work * originals.len() as f64 / probed.len() as f64;
-            if projected > limit {
-                return Err(too_much_work(originals.len(), projected, limit));
-            }
-            rest.retain(|k| searched[*k].is_none());
-            progress.done += probed.len();
+            work = self
+                .search_sample(parts, originals, &mut searched, observer, device)
+                .await?;
+            progress.done = searched.iter().flatten().count();
             report_progress(observer, &progress)?;
         }
+        let rest: Vec<usize> = originals
+            .iter()
+            .copied()
+            .filter(|k| searched[*k].is_none())
+            .collect();
         // The sample may misjudge the rest: the work done is checked
         // between waves.
         let mut add_work = |founds: &[&Found]| {
@@ -135,6 +124,39 @@ impl<'a> PartSearch<'a> {
             report_progress(observer, &progress)?;
         }
         Ok(searched)
+    }
+
+    /// A sample of `originals` searched first, one by one, into `searched`:
+    /// its work, or the error for the work it projects over all of them
+    /// when that passes the limit.
+    async fn search_sample(
+        &self,
+        parts: &[(usize, &ScenePart)],
+        originals: &[usize],
+        searched: &mut [Option<Found>],
+        observer: &RefCell<&mut dyn Observer>,
+        device: Option<&dyn LayerDevice>,
+    ) -> Result<f64> {
+        let probed = probe(originals);
+        let mut work = 0.0;
+        for &k in &probed {
+            let (index, part) = parts[k];
+            let mut runner = Runner {
+                observer,
+                device,
+                wave: None,
+                held: self.held.clone(),
+            };
+            let found = self.part(index, part, &mut runner).await?;
+            work += part_work(&found);
+            searched[k] = Some(found);
+        }
+        let projected = work * originals.len() as f64 / probed.len() as f64;
+        let limit = self.options.max_part_work;
+        match projected > limit {
+            true => Err(too_much_work(originals.len(), projected, limit)),
+            false => Ok(work),
+        }
     }
 
     /// The parts of `wave` searched side by side on `device`, each layer of
