@@ -103,7 +103,10 @@ def main():
         pose[:3, 3] = [6.0, -5.0, 0]
         scene.add_geometry(piston(0.88).apply_transform(pose), node_name="decoy")
         assembly(pose, 0.88, True, "decoy", scene)
-    write_scene(a.out, scene, truth, radius)
+    # The bosses face each other across the axis: half a turn about it
+    # maps the piston onto itself.
+    half_turn = trimesh.transformations.rotation_matrix(np.pi, [0, 0, 1])
+    write_scene(a.out, scene, truth, radius, symmetries=[np.eye(4).tolist(), half_turn.tolist()])
 
 
 if __name__ == "__main__":
