@@ -82,8 +82,8 @@ impl<'a> PartSearch<'a> {
             .collect();
         // The sample may misjudge the rest: the work done is checked
         // between waves.
-        let mut add_work = |founds: &[&Found]| {
-            work += founds.iter().map(|f| part_work(f)).sum::<f64>();
+        let mut add_work = |more: f64| {
+            work += more;
             match work > limit {
                 true => Err(too_much_work(originals.len(), work, limit)),
                 false => Ok(()),
@@ -92,7 +92,7 @@ impl<'a> PartSearch<'a> {
         if let Some(device) = device {
             for wave in self.waves(parts, &rest, device.wave_grids()) {
                 let founds = self.device_wave(parts, &wave, observer, device).await?;
-                add_work(&founds.iter().collect::<Vec<_>>())?;
+                add_work(founds.iter().map(part_work).sum())?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
@@ -111,11 +111,11 @@ impl<'a> PartSearch<'a> {
                     held: self.held.clone(),
                 };
                 let found = self.part(index, part, &mut runner).await?;
-                add_work(&[&found])?;
+                add_work(part_work(&found))?;
                 searched[k] = Some(found);
             } else {
                 let founds = self.cpu_wave(parts, &wave, observer)?;
-                add_work(&founds.iter().collect::<Vec<_>>())?;
+                add_work(founds.iter().map(part_work).sum())?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
