@@ -60,8 +60,11 @@ const REFINE_ANGLE: f64 = 0.035;
 /// Placements scoring less than this before refinement are not refined.
 const REFINE_FROM: f64 = 0.4;
 
-/// Refinement counts every this many surface samples per trial pose.
-const REFINE_STRIDE: usize = 2;
+/// Refinement counts every this many surface samples per trial pose: 1024
+/// of the 4096 resolve its steps (a standard deviation of 0.01 at most
+/// against the full count, which scores the result). Half as many again
+/// were half the cost of checking a near twin, for the same verdicts.
+const REFINE_STRIDE: usize = 4;
 
 /// Poses are ranked on every this many surface samples first.
 const ROUGH_STRIDE: usize = 16;
@@ -411,9 +414,10 @@ impl Verifier {
         };
         for a in self.surface.iter().step_by(stride) {
             counts.total += 1;
-            if pose.lands(near_surface, v, *a) {
+            let [x, y, z] = pose.voxel(v, *a);
+            if near_surface.get(x, y, z) {
                 counts.hits += 1;
-            } else if pose.lands(bits, v, *a) {
+            } else if bits.get(x, y, z) {
                 counts.buried += 1;
             }
             if counts.total.is_multiple_of(64) && give_up(&counts, samples - counts.total) {
@@ -528,14 +532,14 @@ impl Pose {
         }
     }
 
-    /// Whether template offset `a` lands on a set voxel of `g`, around voxel `v`.
-    fn lands(&self, g: &Grid, v: [i64; 3], a: Vec3) -> bool {
+    /// The voxel template offset `a` lands in, placed around voxel `v`.
+    fn voxel(&self, v: [i64; 3], a: Vec3) -> [i64; 3] {
         let q = rotate_with(&self.rows, a) + self.shift;
-        g.get(
+        [
             v[0] + q.x.round() as i64,
             v[1] + q.y.round() as i64,
             v[2] + q.z.round() as i64,
-        )
+        ]
     }
 }
 
