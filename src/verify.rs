@@ -236,10 +236,6 @@ impl Verifier {
             }
         }
         let bits = solid.bits();
-        let agreement = |pose: &Pose, stride: usize| {
-            self.surface_counts(near_surface, bits, vi, pose, stride)
-                .score(self.max_hidden)
-        };
         let rough_counts: Vec<SurfaceCounts> = poses
             .iter()
             .map(|p| self.surface_counts(near_surface, bits, vi, p, ROUGH_STRIDE))
@@ -267,7 +263,15 @@ impl Verifier {
             if *r < best_rough - ROUGH_MARGIN {
                 continue;
             }
-            let surface = agreement(pose, 1);
+            // A count that can no longer come within a tie of the best
+            // stops: that pose cannot be chosen.
+            let hopeless = |counts: &SurfaceCounts, left| {
+                best.is_some_and(|(b, _)| counts.best_with(left) < b - TIE)
+            };
+            let Some(counts) = self.counts_unless(near_surface, bits, vi, pose, 1, hopeless) else {
+                continue;
+            };
+            let surface = counts.score(self.max_hidden);
             // Near-ties (a template symmetric under a rotation): keep the
             // placement that moves the candidate least.
             let better = match best {
