@@ -127,7 +127,7 @@ pub struct MatchOptions {
     /// At 0.5 this is 1.5-20 times faster on the shared scenes, but what it
     /// finds depends on where the cells fall: turning remeshed-cow can lose
     /// an occurrence, and on CAD meshes (few vertices, sharp edges) it loses
-    /// most: 2 of the 8 copies on real-saw-roller (docs/BENCHMARKS.md).
+    /// most: 2 of the 8 copies on real-saw-roller (docs/CHANGELOG.md).
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.curvature_spacing))]
     pub curvature_spacing: f64,
     /// Survivors within this share of r_k of a better one join its instance.
