@@ -723,6 +723,19 @@ pub struct SurfaceFit {
     pub weakest_piece: f64,
 }
 
+impl SurfaceFit {
+    /// The copy's score: its agreement, or a shell's where one is missing.
+    /// A shell missing costs little of the whole surface (a pin, a wheel's
+    /// hub), but the copy is not one.
+    pub fn score(&self) -> f64 {
+        if self.weakest_piece < PIECE_PRESENT {
+            self.weakest_piece
+        } else {
+            self.agreement
+        }
+    }
+}
+
 /// A piece of fewer samples is judged only with the rest: its share would
 /// turn on a sample or two.
 pub const PIECE_SAMPLES: usize = 16;
@@ -785,6 +798,71 @@ pub fn surface_fit(
         landed,
         weakest_piece,
     }
+}
+
+/// Samples within this many voxels of the scene's surface pull the pose in
+/// [`stray_share`]'s refit: a near twin's shared body lies within rounding
+/// of the scene, its differing part a tenth of a voxel off or more.
+const SNAP_GATE: f64 = 0.1;
+
+/// Refit iterations at most: the pose moves by a fraction of a voxel.
+const SNAP_ITERATIONS: usize = 10;
+
+/// The share of `samples` that still lie off the scene's surface, by more
+/// than `off` or on nothing (`hidden` ones aside), once the pose is refit
+/// on the samples within [`SNAP_GATE`] voxels alone. A near twin of a part
+/// built from the same data (a tower whose setback moved) shares most of
+/// its surface with the template exactly, so the mesh alignment settles
+/// between that body and the part that differs; refit on the body, the
+/// difference shows in full. An exact copy, and a copy meshed anew (off
+/// by its chords, far less than `off`), leave next to nothing off.
+pub fn stray_share(
+    samples: &SurfaceSamples,
+    scene: &SurfaceIndex,
+    start: Rigid,
+    voxel: f64,
+    off: f64,
+    hidden: impl Fn(Vec3) -> bool,
+) -> f64 {
+    let mut pose = start;
+    for _ in 0..SNAP_ITERATIONS {
+        let pairs: Vec<(Vec3, Vec3, Vec3)> = samples
+            .points
+            .iter()
+            .filter_map(|&p| {
+                let p = pose.apply(p);
+                let (q, m, _) = scene.nearest(p, SNAP_GATE * voxel)?;
+                Some((p, q, m))
+            })
+            .collect();
+        if pairs.len() < 6 {
+            break;
+        }
+        let pivot = pairs.iter().fold(Vec3::ZERO, |s, (p, _, _)| s + *p) / pairs.len() as f64;
+        let Some((turn, shift)) = solve_step(&pairs, pivot, voxel) else {
+            break;
+        };
+        let rotation = DMat3::from_quat(DQuat::from_scaled_axis(turn));
+        pose = Rigid {
+            rotation: rotation * pose.rotation,
+            translation: rotation * (pose.translation - pivot) + pivot + shift,
+        };
+        // The rim moves by a thousandth of a voxel.
+        if turn.length() * samples.reach < 1e-3 * voxel && shift.length() < 1e-3 * voxel {
+            break;
+        }
+    }
+    let (mut counted, mut stray) = (0usize, 0usize);
+    for &p in &samples.points {
+        let q = pose.apply(p);
+        if scene.reaches(q, off) {
+            counted += 1;
+        } else if !hidden(q) {
+            counted += 1;
+            stray += 1;
+        }
+    }
+    stray as f64 / counted.max(1) as f64
 }
 
 /// Turns about parallel axes through two points differ by a shift across

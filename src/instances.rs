@@ -48,6 +48,11 @@ pub struct Instance {
     /// whole copy), rather than lying inside a larger whole; None without a
     /// pose.
     pub whole: Option<bool>,
+    /// The share of the template's surface left off the scene's once the
+    /// pose is refit on what fits closely ([`crate::align::stray_share`]):
+    /// what tells a near twin sharing most of the template's data exactly.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub(crate) stray: Option<f64>,
 }
 
 /// A survivor with its verification.
@@ -130,6 +135,7 @@ pub fn group(
                     pose: v.pose,
                     residual: None,
                     whole: None,
+                    stray: None,
                 },
             ));
         }
@@ -188,6 +194,13 @@ const NEAR_TWIN_FIT: f64 = 1e-3;
 /// at up to 2.2e-3 r_k beside an exact one).
 const FULL_COVER: f64 = 0.95;
 
+/// ...or, however much of it lands, if this share of it lies off the
+/// scene's once refit on what fits closely (see [`Instance::stray`]): the
+/// towers of a city whose setback moved leave 5-10% off, a tower taller
+/// than the template, which holds it whole, under 1% (the rim of its top
+/// face near the walls).
+const STRAY_SHARE: f64 = 0.02;
+
 /// A selection's own instance lies where its template was read, within
 /// this share of r_k.
 const SAME_PLACE: f64 = 0.01;
@@ -197,6 +210,27 @@ const SAME_PLACE: f64 = 0.01;
 /// closest points.
 const ROUNDING_ULPS: f64 = 16.0;
 
+/// How far `residual` passes float rounding at `position`, as a share of
+/// `radius`: rounding grows with the coordinates' magnitude, and
+/// `template_center`'s counts too.
+fn excess_fit(residual: f64, position: Vec3, template_center: Vec3, radius: f64) -> f64 {
+    let magnitude = position.length().max(template_center.length()) + radius;
+    (residual - ROUNDING_ULPS * f64::from(f32::EPSILON) * magnitude) / radius
+}
+
+/// Whether only [`Instance::stray`] could tell that an instance with this
+/// fit is a near twin: it lands whole, but not within rounding. The refit
+/// it takes is spared the others.
+pub(crate) fn stray_decides(
+    score: f64,
+    residual: f64,
+    position: Vec3,
+    template_center: Vec3,
+    radius: f64,
+) -> bool {
+    score >= FULL_COVER && excess_fit(residual, position, template_center, radius) > NEAR_TWIN_FIT
+}
+
 /// Drops the near twins where the scene shows what an exact copy fits at.
 ///
 /// An exact CAD or BIM copy lies on the template within float rounding; a
@@ -205,7 +239,8 @@ const ROUNDING_ULPS: f64 = 16.0;
 /// without losing bent copies, so the scene decides: only where some
 /// instance fits within rounding (the data has exact copies) are those
 /// that neither fit within [`NEAR_TWIN_FIT`] nor land [`FULL_COVER`]
-/// refused. A scene of bent or remeshed copies only keeps them all. Rounding grows
+/// refused, and so are those that, refit on what fits closely, leave
+/// [`STRAY_SHARE`] off. A scene of bent or remeshed copies only keeps them all. Rounding grows
 /// with the coordinates' magnitude: a copy far from the origin rounds more,
 /// and `template_center`'s magnitude counts too. A selection's template is
 /// `in_scene`: the instance it is read from fits exactly whatever the data,
@@ -216,14 +251,10 @@ pub fn refuse_near_twins(
     radius: f64,
     in_scene: bool,
 ) {
-    let rounding = |i: &Instance| {
-        let magnitude = Vec3::from(i.position)
-            .length()
-            .max(template_center.length())
-            + radius;
-        ROUNDING_ULPS * f64::from(f32::EPSILON) * magnitude
+    let excess = |i: &Instance| {
+        i.residual
+            .map(|r| excess_fit(r, Vec3::from(i.position), template_center, radius))
     };
-    let excess = |i: &Instance| i.residual.map(|r| (r - rounding(i)) / radius);
     let itself = |i: &Instance| {
         in_scene && Vec3::from(i.position).distance(template_center) <= SAME_PLACE * radius
     };
@@ -232,7 +263,9 @@ pub fn refuse_near_twins(
         .any(|i| !itself(i) && excess(i).is_some_and(|e| e <= EXACT_FIT));
     if exact {
         let twin = |i: &Instance| {
-            excess(i).is_some_and(|e| e > NEAR_TWIN_FIT) && i.score.is_some_and(|s| s < FULL_COVER)
+            let off = i.score.is_some_and(|s| s < FULL_COVER)
+                || i.stray.is_some_and(|s| s >= STRAY_SHARE);
+            excess(i).is_some_and(|e| e > NEAR_TWIN_FIT) && off
         };
         instances.retain(|i| !twin(i));
     }
@@ -317,6 +350,7 @@ mod tests {
             pose: None,
             residual: Some(residual),
             whole: Some(true),
+            stray: Some(0.0),
         }
     }
 
@@ -343,7 +377,7 @@ mod tests {
         let selected = fitted(5.0, 0.0);
         let mut selection = vec![selected.clone(), bent.clone()];
         refuse_near_twins(&mut selection, Vec3::new(5.0, 0.0, 0.0), radius, true);
-        assert_eq!(selection, vec![selected, bent]);
+        assert_eq!(selection, vec![selected, bent.clone()]);
 
         // A copy meshed anew lands whole, though it fits no better.
         let remeshed = Instance {
@@ -353,6 +387,19 @@ mod tests {
         let exact = fitted(1.0, 1e-7);
         let mut mixed = vec![exact.clone(), remeshed.clone(), twin];
         refuse_near_twins(&mut mixed, Vec3::ZERO, radius, false);
-        assert_eq!(mixed, vec![exact, remeshed]);
+        assert_eq!(mixed, vec![exact.clone(), remeshed.clone()]);
+
+        // A twin that lands whole but leaves some of itself off once refit
+        // on its shared body; the same beside bent copies only is kept.
+        let whole_twin = Instance {
+            stray: Some(0.05),
+            ..remeshed.clone()
+        };
+        let mut landed = vec![exact.clone(), remeshed.clone(), whole_twin.clone()];
+        refuse_near_twins(&mut landed, Vec3::ZERO, radius, false);
+        assert_eq!(landed, vec![exact, remeshed]);
+        let mut no_exact = vec![bent.clone(), whole_twin.clone()];
+        refuse_near_twins(&mut no_exact, Vec3::ZERO, radius, false);
+        assert_eq!(no_exact, vec![bent, whole_twin]);
     }
 }

@@ -6,7 +6,7 @@
 //! its harmonics missed all three copies at resolution 512 and found them
 //! at 500 and 520. Its signatures are now the mean over two phases
 //! (`search::voxel::signatures`), and the copies are found at every
-//! resolution tried.
+//! resolution tried, with no near twin.
 
 mod common;
 
@@ -35,8 +35,12 @@ fn towers_turned_on_the_ground_are_found_at_every_resolution() {
         .unwrap();
         let report = search(&scene, &template, &MatchOptions::DEFAULT, &mut ()).unwrap();
         let score = common::score(&truth, &report, false);
+        // The near twins (the setback moved or reshaped) are refused: they
+        // share most of the tower exactly, and refit on it, 5-10% of the
+        // template lies off.
         assert_eq!(
-            score.tp, 3,
+            (score.tp, score.fp),
+            (3, 0),
             "resolution {resolution}: {score:?}, {:#?}",
             report.instances
         );

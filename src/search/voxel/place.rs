@@ -5,9 +5,11 @@
 
 use super::prepare::PartSearch;
 use super::whole::{Components, is_whole, template_index};
-use crate::align::{PIECE_PRESENT, Rigid, SurfaceIndex, SurfaceSamples, align, surface_fit};
+use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, stray_share, surface_fit};
 use crate::cascade::Survivor;
-use crate::instances::{Instance, Verified, group, local_bests, placement_transform};
+use crate::instances::{
+    Instance, Verified, group, local_bests, placement_transform, stray_decides,
+};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{PartVoxels, Scene, ScenePart};
 use crate::template::VoxelTemplate;
@@ -147,6 +149,11 @@ impl PartSearch<'_> {
     }
 }
 
+/// A sample this share of r_k off the scene's surface, once the pose is
+/// refit on what fits closely, is off: a copy meshed anew lies within its
+/// chords (about 1e-3 r_k), a near twin's differing part farther.
+const STRAY_OFF: f64 = 0.01;
+
 /// Refines each instance's pose on the meshes ([`crate::align`]): the
 /// template's samples onto `part`'s triangles around the instance. The
 /// instance's position follows its pose, its score falls to the share
@@ -199,23 +206,28 @@ fn align_instances(
         let index = SurfaceIndex::new(mesh, triangles, bounds, cell);
         let pose = align(samples, &index, start, voxel).pose;
         let fit = surface_fit(samples, &index, pose, tolerance, hidden, max_hidden);
-        Some((pose, fit))
+        let (centre, radius) = (template.center(), template.radius());
+        let stray = stray_decides(
+            fit.score(),
+            fit.residual,
+            pose.apply(centre),
+            centre,
+            radius,
+        )
+        .then(|| stray_share(samples, &index, pose, voxel, STRAY_OFF * radius, hidden));
+        Some((pose, fit, stray))
     });
     instances
         .iter_mut()
         .zip(refined)
         .map(|(instance, refined)| {
-            let Some((pose, fit)) = refined else {
+            let Some((pose, fit, stray)) = refined else {
                 return Vec::new();
             };
+            instance.stray = stray;
             instance.pose = Some(pose.to_rows());
             instance.position = pose.apply(template.center()).to_array();
-            // A shell missing costs little of the whole surface (a pin, a
-            // wheel's hub), but the copy is not one: it scores that shell.
-            instance.score = Some(match fit.weakest_piece < PIECE_PRESENT {
-                true => fit.weakest_piece,
-                false => fit.agreement,
-            });
+            instance.score = Some(fit.score());
             instance.residual = Some(fit.residual);
             fit.landed
         })
