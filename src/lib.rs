@@ -90,10 +90,9 @@ compile_error!(
     "the JavaScript binding reads options and writes reports with serde: build with --features serde"
 );
 
-pub use budget::MemoryEstimate;
 pub use cascade::{LayerStats, Observer, Progress};
 pub use descriptor::ClutterPolicy;
-pub use error::{Error, Format, Result};
+pub use error::{Error, Format, MemoryEstimate, Result};
 pub use exec::Threads;
 /// The former name of [`Threads`].
 #[deprecated(note = "renamed `Threads`: it says how the CPU's threads run, not which device")]

@@ -3,10 +3,10 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
-use crate::budget::MemoryEstimate;
 use crate::budget::{mesh_bytes, surface_bytes, voxel_bytes, voxel_work};
 use crate::clock::now_ms;
 use crate::descriptor::curvature::Surface;
+use crate::error::MemoryEstimate;
 use crate::error::{Error, Result};
 use crate::exec::Threads;
 use crate::math::Aabb;

@@ -6,11 +6,10 @@
 use super::near_vertices::{self, template_gap};
 use super::signatures::{Signatures, signatures};
 use crate::align::SurfaceSamples;
-use crate::budget::MemoryEstimate;
 use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{SphericalTransform, VolumeDescriptor};
-use crate::error::Result;
+use crate::error::{MemoryEstimate, Result};
 use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::{TriMesh, connected_components};

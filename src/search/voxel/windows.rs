@@ -12,9 +12,8 @@
 use std::collections::BTreeSet;
 
 use super::near_vertices::NearVertices;
-use crate::budget::MemoryEstimate;
 use crate::budget::voxel_bytes;
-use crate::error::{Error, Result};
+use crate::error::{Error, MemoryEstimate, Result};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Scene, ScenePart};
 use crate::voxel::GridSpec;
