@@ -333,6 +333,16 @@ pub fn finished<T>(future: impl std::future::Future<Output = T>) -> T {
     }
 }
 
+/// Bytes each candidate point holds at most while the cascade runs: its
+/// index, a descriptor state and its running distance, in the list being
+/// filtered and the one being built.
+const BYTES_PER_CANDIDATE: u64 = 128;
+
+/// Bytes of the cascade's state for `candidates` points.
+pub(crate) fn candidate_bytes(candidates: usize) -> u64 {
+    BYTES_PER_CANDIDATE.saturating_mul(candidates as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

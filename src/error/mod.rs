@@ -8,7 +8,10 @@ mod file_text;
 
 use std::fmt;
 
+pub use crate::budget::MemoryEstimate;
 pub use file_text::{FileText, escape, escape_bytes};
+
+use crate::budget::mib;
 
 /// The mesh file formats the loaders understand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -351,41 +354,9 @@ impl Error {
     }
 }
 
-/// What a search or a scene needs, item by item.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MemoryEstimate {
-    items: Vec<(&'static str, u64)>,
-}
-
+/// The check that turns an estimate into an error sits here, not in
+/// `crate::budget`, so that the budget names nothing above it.
 impl MemoryEstimate {
-    /// An empty estimate.
-    pub(crate) fn new() -> MemoryEstimate {
-        MemoryEstimate::default()
-    }
-
-    /// Adds `bytes` for `what`.
-    pub(crate) fn add(&mut self, what: &'static str, bytes: u64) -> &mut Self {
-        if bytes > 0 {
-            match self.items.iter_mut().find(|(w, _)| *w == what) {
-                Some((_, b)) => *b = b.saturating_add(bytes),
-                None => self.items.push((what, bytes)),
-            }
-        }
-        self
-    }
-
-    /// The sum.
-    pub fn total(&self) -> u64 {
-        self.items
-            .iter()
-            .fold(0u64, |s, (_, b)| s.saturating_add(*b))
-    }
-
-    /// The largest item.
-    pub fn largest(&self) -> Option<(&'static str, u64)> {
-        self.items.iter().copied().max_by_key(|&(_, b)| b)
-    }
-
     /// Fails with [`Error::OverBudget`] when the total passes `budget`;
     /// `advice` says what to change.
     pub(crate) fn check(&self, budget: u64, advice: impl FnOnce() -> String) -> Result<()> {
@@ -397,30 +368,6 @@ impl MemoryEstimate {
             budget,
             advice: advice(),
         })
-    }
-}
-
-/// Items largest first, in MiB.
-impl fmt::Display for MemoryEstimate {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut items = self.items.clone();
-        items.sort_by_key(|&(_, b)| std::cmp::Reverse(b));
-        for (i, (what, bytes)) in items.iter().enumerate() {
-            if i > 0 {
-                f.write_str(", ")?;
-            }
-            write!(f, "{what} {}", mib(*bytes))?;
-        }
-        Ok(())
-    }
-}
-
-/// Bytes in MiB for messages: "12 MiB", or "a few EiB" for nonsense.
-pub(crate) fn mib(bytes: u64) -> String {
-    if bytes == u64::MAX {
-        "more than 16 EiB".into()
-    } else {
-        format!("{} MiB", bytes.div_ceil(1 << 20))
     }
 }
 

@@ -334,6 +334,11 @@ fn is_degenerate(positions: &[[f32; 3]], [a, b, c]: [u32; 3]) -> bool {
     (pb - pa).cross(pc - pa).length_squared() == 0.0
 }
 
+/// Bytes of a mesh: f32 positions and u32 triangles, with room to copy.
+pub(crate) fn mesh_bytes(vertices: usize, triangles: usize) -> u64 {
+    2 * (12 * vertices as u64 + 12 * triangles as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,15 +3,17 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
-use crate::budget::{mesh_bytes, surface_bytes, voxel_bytes, voxel_work};
+use crate::budget::MemoryEstimate;
 use crate::clock::now_ms;
 use crate::descriptor::curvature::Surface;
-use crate::error::MemoryEstimate;
+use crate::descriptor::curvature::surface_bytes;
 use crate::error::{Error, Result};
 use crate::exec::Threads;
 use crate::math::Aabb;
 use crate::mesh::TriMesh;
+use crate::mesh::mesh_bytes;
 use crate::voxel::{GridSpec, PADDING, WindowedMesh};
+use crate::voxel::{voxel_bytes, voxel_work};
 use std::borrow::Cow;
 use std::sync::OnceLock;
 

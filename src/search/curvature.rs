@@ -2,16 +2,18 @@
 //! candidates, the mirror test, then grouping.
 
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
-use crate::budget::{candidate_bytes, mesh_bytes, surface_bytes};
+use crate::budget::MemoryEstimate;
+use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Survivor, run_cascade_in_chunks};
 use crate::clock::now_ms;
 use crate::descriptor::CurvatureDescriptor;
+use crate::descriptor::curvature::surface_bytes;
 use crate::descriptor::curvature::{MirrorTest, SAMPLE_REACH, SAMPLE_SLACK, Surface, VertexSample};
-use crate::error::MemoryEstimate;
 use crate::error::{Error, Result};
 use crate::exec::Threads;
 use crate::instances::{Verified, group, local_bests};
 use crate::math::Vec3;
+use crate::mesh::mesh_bytes;
 use crate::options::MatchOptions;
 use crate::scene::Scene;
 use crate::template::{CurvatureTemplate, TemplateSource};

@@ -22,6 +22,7 @@ mod voxel;
 
 pub use curvature::CurvatureTemplate;
 pub use voxel::VoxelTemplate;
+pub(crate) use voxel::add_ball_tables;
 
 use crate::error::{Error, Result};
 use crate::math::Vec3;

@@ -6,14 +6,16 @@ use super::anchor::{Anchor, Thresholds, further_anchors, stable_anchor};
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
-use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
+use crate::budget::MemoryEstimate;
+use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{Anchors, all_anchors};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3, from_f32};
-use crate::mesh::{Sphere, TriMesh, connected_components, minimal_bounding_sphere};
+use crate::mesh::{Sphere, TriMesh, connected_components, mesh_bytes, minimal_bounding_sphere};
 use crate::options::MatchOptions;
 use crate::scene::{Lattice, PartVoxels, Parts, Scene, ShellRule, check_voxel_work, nearest_voxel};
-use crate::voxel::GridSpec;
+use crate::verify::moment_level;
+use crate::voxel::{GridSpec, ball_bytes, level_for_radius, voxel_bytes};
 
 /// The anchor of a template of `radius` and `layers` voxelized on `voxels`
 /// whose c_T is at voxel `nearest` ([`stable_anchor`]), or `nearest`
@@ -438,5 +440,17 @@ fn too_small(radius_voxels: f64, resolution: u32) -> Error {
         radius_voxels,
         min_voxels: MIN_RADIUS_VOXELS,
         advice,
+    }
+}
+
+/// Adds the run tables of the volume and verification balls for layer
+/// radii of `radii` voxels.
+pub(crate) fn add_ball_tables(estimate: &mut MemoryEstimate, radii: &[f64]) {
+    for &r in radii {
+        estimate.add(
+            "ball tables",
+            ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)),
+        );
+        estimate.add("ball tables", ball_bytes(r, moment_level(r)));
     }
 }

@@ -191,7 +191,7 @@ impl Ball {
     }
 
     /// Bytes its run tables hold once bound (what
-    /// [`crate::budget::ball_bytes`] estimates ahead): the runs, shared by
+    /// [`crate::voxel::ball_bytes`] estimates ahead): the runs, shared by
     /// its clones, and one solid's offsets.
     #[cfg(test)]
     pub(crate) fn table_bytes(&self) -> u64 {

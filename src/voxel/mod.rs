@@ -6,6 +6,7 @@
 //! with an empty face neighbour, is the set of candidate points.
 
 mod ball;
+mod estimate;
 mod fill;
 mod grid;
 mod pyramid;
@@ -14,6 +15,7 @@ mod surface;
 mod window;
 
 pub use ball::Ball;
+pub(crate) use estimate::{ball_bytes, voxel_bytes, voxel_work};
 pub use fill::fill_solid;
 pub(crate) use grid::AtomicGrid;
 pub use grid::{Grid, GridSpec, PADDING};

@@ -36,6 +36,7 @@ pub use mirror::handedness;
 pub use neighbourhood::CurvatureState;
 pub use sample::VertexGrid;
 pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
+pub(crate) use surface::surface_bytes;
 pub use surface::{CurvedEdge, Edge, Surface};
 
 use super::OnionDescriptor;

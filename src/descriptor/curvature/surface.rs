@@ -598,5 +598,14 @@ impl Surface {
         &self.neighbour_list[a as usize..b as usize]
     }
 }
+/// Bytes per triangle of the welded surface the curvature descriptor walks
+/// (corners, areas, edges, adjacency, patches), rounded up from its arrays.
+const SURFACE_BYTES_PER_TRIANGLE: u64 = 320;
+
+/// Bytes of the welded surface of a mesh with `triangles`.
+pub(crate) fn surface_bytes(triangles: usize) -> u64 {
+    SURFACE_BYTES_PER_TRIANGLE.saturating_mul(triangles as u64)
+}
+
 #[cfg(test)]
 mod tests;

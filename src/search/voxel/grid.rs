@@ -7,7 +7,7 @@ use super::parts::Runner;
 use super::prepare::PartSearch;
 use super::waves::Found;
 use super::windows::Window;
-use crate::budget::candidate_bytes;
+use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;

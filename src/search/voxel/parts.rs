@@ -9,15 +9,16 @@ use super::prepare::PartSearch;
 use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share_wave_time};
 use super::windows::{Window, part_windows};
 use super::work::{PROBE_FROM, probe, too_much_work, work as part_work};
-use crate::budget::voxel_bytes;
+use crate::budget::MemoryEstimate;
 use crate::cascade::{LayerStats, Observer, Progress, finished};
 use crate::clock::now_ms;
 use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
-use crate::error::{Error, MemoryEstimate, Result};
+use crate::error::{Error, Result};
 use crate::instances::{Instance, merge_duplicates};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, PartVoxels, Scene, ScenePart};
 use crate::voxel::WindowedMesh;
+use crate::voxel::voxel_bytes;
 
 /// What one part's search runs with: where it reports its layers, what
 /// computes them besides the CPU, and what the search holds beside it.

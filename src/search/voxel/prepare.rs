@@ -6,18 +6,21 @@
 use super::near_vertices::{self, template_gap};
 use super::signatures::{Signatures, signatures};
 use crate::align::SurfaceSamples;
-use crate::budget::{add_ball_tables, mesh_bytes, voxel_bytes};
+use crate::budget::MemoryEstimate;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{SphericalTransform, VolumeDescriptor};
-use crate::error::{MemoryEstimate, Result};
+use crate::error::Result;
 use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
+use crate::mesh::mesh_bytes;
 use crate::mesh::{TriMesh, connected_components};
 use crate::options::MatchOptions;
 use crate::scene::{Lattice, Parts, Scene};
+use crate::template::add_ball_tables;
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 use crate::voxel::Ball;
+use crate::voxel::voxel_bytes;
 
 /// What searching one part needs: the template's side, prepared once.
 pub(super) struct PartSearch<'a> {

@@ -12,11 +12,12 @@
 use std::collections::BTreeSet;
 
 use super::near_vertices::NearVertices;
-use crate::budget::voxel_bytes;
-use crate::error::{Error, MemoryEstimate, Result};
+use crate::budget::MemoryEstimate;
+use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Scene, ScenePart};
 use crate::voxel::GridSpec;
+use crate::voxel::voxel_bytes;
 
 /// Voxels past twice the template's radius that a window adds on each
 /// side: verification's shifts, the pose refinement, and the outermost
