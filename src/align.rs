@@ -835,18 +835,10 @@ pub fn stray_share(
                 Some((p, q, m))
             })
             .collect();
-        if pairs.len() < 6 {
-            break;
-        }
-        let pivot = pairs.iter().fold(Vec3::ZERO, |s, (p, _, _)| s + *p) / pairs.len() as f64;
-        let Some((turn, shift)) = solve_step(&pairs, pivot, voxel) else {
+        let Some((pivot, turn, shift)) = pair_step(&pairs, voxel) else {
             break;
         };
-        let rotation = DMat3::from_quat(DQuat::from_scaled_axis(turn));
-        pose = Rigid {
-            rotation: rotation * pose.rotation,
-            translation: rotation * (pose.translation - pivot) + pivot + shift,
-        };
+        pose = moved(pose, pivot, turn, shift);
         // The rim moves by a thousandth of a voxel.
         if turn.length() * samples.reach < 1e-3 * voxel && shift.length() < 1e-3 * voxel {
             break;
@@ -1078,19 +1070,11 @@ fn icp(
             .filter(|n| facing * n.3 >= NORMAL_COSINE)
             .map(|n| (n.0, n.1, n.2))
             .collect();
-        if pairs.len() < 6 {
-            break;
-        }
-        let pivot = pairs.iter().fold(Vec3::ZERO, |s, (p, _, _)| s + *p) / pairs.len() as f64;
-        let Some((turn, shift)) = solve_step(&pairs, pivot, voxel) else {
+        let Some((pivot, turn, shift)) = pair_step(&pairs, voxel) else {
             break;
         };
         let scale = 1.0 + course.stretch(turn, shift, voxel);
-        let rotation = DMat3::from_quat(DQuat::from_scaled_axis(turn * scale));
-        pose = Rigid {
-            rotation: rotation * pose.rotation,
-            translation: rotation * (pose.translation - pivot) + pivot + shift * scale,
-        };
+        pose = moved(pose, pivot, turn * scale, shift * scale);
         // Converged: the rim moves by a hundredth of a voxel.
         if turn.length() < 1e-4 && shift.length() < 1e-2 * voxel {
             break;
@@ -1107,6 +1091,27 @@ fn icp(
     Alignment {
         pose,
         misfit: misfit / total.max(1) as f64,
+    }
+}
+
+/// One point-to-plane step on `pairs` (point, match, normal), about their
+/// centroid: the pivot, the turn (scaled axis) and the shift; `None` with
+/// fewer than six pairs or when they do not fix a pose.
+fn pair_step(pairs: &[(Vec3, Vec3, Vec3)], voxel: f64) -> Option<(Vec3, Vec3, Vec3)> {
+    if pairs.len() < 6 {
+        return None;
+    }
+    let pivot = pairs.iter().fold(Vec3::ZERO, |s, (p, _, _)| s + *p) / pairs.len() as f64;
+    let (turn, shift) = solve_step(pairs, pivot, voxel)?;
+    Some((pivot, turn, shift))
+}
+
+/// `pose` turned by `turn` (scaled axis) about `pivot`, then shifted.
+fn moved(pose: Rigid, pivot: Vec3, turn: Vec3, shift: Vec3) -> Rigid {
+    let rotation = DMat3::from_quat(DQuat::from_scaled_axis(turn));
+    Rigid {
+        rotation: rotation * pose.rotation,
+        translation: rotation * (pose.translation - pivot) + pivot + shift,
     }
 }
 
