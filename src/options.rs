@@ -223,16 +223,15 @@ pub struct MatchOptions {
     #[cfg_attr(feature = "cli", arg(skip = MatchOptions::DEFAULT.max_curvature_work))]
     pub max_curvature_work: f64,
     /// Volume and harmonics: refuse a search whose distinct parts would
-    /// take more work than this (about nanoseconds of one core), with
-    /// [`crate::Error::PartsTooMuchWork`], judged from a sample of the
-    /// parts searched first.
+    /// take more work than this (about nanoseconds of one core), judged
+    /// from a sample of the parts searched first.
     ///
+    /// The refusal is [`crate::Error::PartsTooMuchWork`].
     /// Each distinct part that could hold a copy is searched on its own,
     /// a few milliseconds each; tens of thousands of near twins take
-    /// minutes. The embedder's setting, not on the CLI or in JavaScript.
+    /// minutes. Raise it to search such a scene whole anyway.
     /// Default: 3e11, about five minutes of one core.
-    #[cfg_attr(feature = "serde", serde(skip))]
-    #[cfg_attr(feature = "cli", arg(skip = MatchOptions::DEFAULT.max_part_work))]
+    #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.max_part_work))]
     pub max_part_work: f64,
     /// Serial or parallel. Default: parallel. The CLI sets it from
     /// `--threads`; JavaScript from the build it loaded.

@@ -208,6 +208,38 @@ fn a_gltf_reads_the_bin_beside_it() {
 }
 
 #[test]
+fn the_parts_work_limit_is_set_on_the_command_line() {
+    // The demo's seven distinct parts take about 1e8 units to search: a
+    // limit of 1 refuses them and says which flag raises it; a limit far
+    // above finds the mugs as the default does.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/scene.glb");
+    let template = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/template.glb");
+    let args = |limit| {
+        [
+            "match",
+            scene,
+            "--template",
+            template,
+            "--json",
+            "--max-part-work",
+            limit,
+        ]
+    };
+    let out = cli(&args("1"));
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("distinct parts would take")
+            && stderr(&out).contains("--max-part-work"),
+        "{}",
+        stderr(&out)
+    );
+    let out = cli(&args("1e15"));
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_finds_the_demo_mugs(&v, 0.2);
+}
+
+#[test]
 fn errors_exit_non_zero_with_a_message() {
     let dir = scratch("cli-errors");
     let garbage = dir.join("garbage.glb");

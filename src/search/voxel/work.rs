@@ -72,8 +72,9 @@ pub(super) fn too_much_work(parts: usize, work: f64, limit: f64) -> Error {
         parts,
         work,
         limit,
-        advice: "search a region of the scene (select it with a sphere, or crop the file), or \
-                 split the scene into smaller files: every distinct part that could hold a \
+        advice: "search a region of the scene (select it with a sphere, or crop the file), \
+                 split the scene into smaller files, or raise the limit (--max-part-work on \
+                 the CLI, maxPartWork in JavaScript): every distinct part that could hold a \
                  copy is searched on its own"
             .into(),
     }
