@@ -327,7 +327,13 @@ fn search_on(
 ) -> MatchReport {
     match gpu {
         #[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
-        Some(gpu) => fast_reject::search::search_on_gpu(scene, source, options, &mut (), gpu),
+        Some(gpu) => pollster::block_on(fast_reject::search_on(
+            fast_reject::Executor::Device(gpu),
+            scene,
+            source,
+            options,
+            &mut (),
+        )),
         #[cfg(not(all(feature = "gpu", not(target_arch = "wasm32"))))]
         Some(never) => match *never {},
         None => search(scene, source, options, &mut ()),

@@ -101,7 +101,7 @@ pub use instances::Instance;
 pub use mesh::TriMesh;
 pub use mesh::io::load;
 pub use scene::{Scene, SceneOptions};
-pub use search::{DescriptorKind, MatchOptions, MatchReport, search};
+pub use search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
 pub use template::TemplateSource;
 
 /// A file of the shared test data: `$FAST_REJECT_SHARED/rel` when that is

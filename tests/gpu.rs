@@ -5,7 +5,7 @@
 mod common;
 
 use fast_reject::gpu::{AdapterChoice, Gpu};
-use fast_reject::search::{MatchOptions, MatchReport, search, search_on_gpu};
+use fast_reject::search::{Executor, MatchOptions, MatchReport, search, search_on};
 use fast_reject::{Scene, SceneOptions};
 
 /// Any adapter, lavapipe included; a machine with none fails, saying what
@@ -20,13 +20,24 @@ fn gpu() -> Gpu {
 const NO_ADAPTER: &str = "no GPU adapter: install a Vulkan driver (Debian: mesa-vulkan-drivers) \
      or build the tests with FAST_REJECT_SKIP_GPU=1 to skip them";
 
+/// The search with its voxel layers on `gpu`, waited on.
+fn search_gpu(
+    scene: &Scene,
+    template: &fast_reject::TemplateSource,
+    options: &MatchOptions,
+    gpu: &Gpu,
+) -> fast_reject::Result<MatchReport> {
+    let executor = Executor::Device(gpu);
+    pollster::block_on(search_on(executor, scene, template, options, &mut ()))
+}
+
 fn assert_same_search(name: &str, gpu: &Gpu) {
     let scene: Scene = common::scene(name, &SceneOptions::DEFAULT);
     let template = common::template(name, false);
     let options = MatchOptions::DEFAULT;
     let cpu: MatchReport = search(&scene, &template, &options, &mut ()).unwrap();
     let before = gpu.submissions();
-    let on_gpu = search_on_gpu(&scene, &template, &options, &mut (), gpu).unwrap();
+    let on_gpu = search_gpu(&scene, &template, &options, gpu).unwrap();
     let after = gpu.submissions();
     let (submissions, kernels) = (after.0 - before.0, after.1 - before.1);
     let info = on_gpu.gpu.as_ref().expect("the report names the GPU");
@@ -92,7 +103,7 @@ fn a_device_too_small_for_the_grid_hands_its_layers_back_to_the_cpu() {
     let template = common::template(name, false);
     let options = MatchOptions::DEFAULT;
     let cpu = search(&scene, &template, &options, &mut ()).unwrap();
-    let report = search_on_gpu(&scene, &template, &options, &mut (), &small).unwrap();
+    let report = search_gpu(&scene, &template, &options, &small).unwrap();
     let fallback = report.gpu.as_ref().and_then(|g| g.fallback.clone());
     assert!(
         fallback

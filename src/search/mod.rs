@@ -16,59 +16,59 @@ use crate::error::Result;
 use crate::scene::Scene;
 use crate::template::TemplateSource;
 
-/// Searches `scene` for every occurrence of `source`.
+/// Where the volume and harmonics layers run. The search never names the
+/// GPU: a device takes a batch of layers per grid and owns its waves and
+/// its retries; the curvature descriptor runs on the threads either way.
+#[derive(Clone, Copy, Default)]
+pub enum Executor<'d> {
+    /// On this process's threads, serial or parallel as
+    /// [`MatchOptions::backend`] says.
+    #[default]
+    Threads,
+    /// Batched on a device, such as `gpu::Gpu` (feature `gpu`):
+    /// the same instances (see `descriptor::harmonics` on the guard band),
+    /// and the report's `gpu` says which adapter ran and whether layers
+    /// went back to the CPU.
+    Device(&'d dyn LayerDevice),
+}
+
+/// Searches `scene` for every occurrence of `source` on this process's
+/// threads: [`search_on`] with [`Executor::Threads`], which never waits.
 pub fn search(
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
-    // With no batch, nothing waits.
-    crate::cascade::finished(search_with(scene, source, options, observer, None))
+    crate::cascade::finished(search_on(
+        Executor::Threads,
+        scene,
+        source,
+        options,
+        observer,
+    ))
 }
 
-/// Either search, with the voxel layers on `device` where one is given.
-async fn search_with(
+/// Searches `scene` for every occurrence of `source`, with the volume and
+/// harmonics layers on `executor`. A device's results arrive when it has
+/// them: natively, block on the future (pollster); in a browser, await it
+/// on the event loop.
+pub async fn search_on(
+    executor: Executor<'_>,
     scene: &Scene,
     source: &TemplateSource,
     options: &MatchOptions,
     observer: &mut dyn Observer,
-    device: Option<&dyn LayerDevice>,
 ) -> Result<MatchReport> {
     options.validate()?;
     if options.descriptor == DescriptorKind::Curvature {
         return curvature::search_curvature(scene, source, options, observer);
     }
+    let device = match executor {
+        Executor::Threads => None,
+        Executor::Device(device) => Some(device),
+    };
     voxel::search_voxels(scene, source, options, observer, device).await
-}
-
-/// [`search`] with the volume and harmonics layers computed on `gpu`:
-/// the same instances (see `descriptor::harmonics` on the guard band).
-/// The report's `gpu` says which adapter ran and whether layers went back
-/// to the CPU; the curvature descriptor runs on the CPU. Blocks while the
-/// GPU works.
-#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
-pub fn search_on_gpu(
-    scene: &Scene,
-    source: &TemplateSource,
-    options: &MatchOptions,
-    observer: &mut dyn Observer,
-    gpu: &crate::gpu::Gpu,
-) -> Result<MatchReport> {
-    pollster::block_on(search_on_gpu_async(scene, source, options, observer, gpu))
-}
-
-/// [`search_on_gpu`] without blocking: the form a browser needs, where the
-/// GPU's results arrive on the event loop.
-#[cfg(feature = "gpu")]
-pub async fn search_on_gpu_async(
-    scene: &Scene,
-    source: &TemplateSource,
-    options: &MatchOptions,
-    observer: &mut dyn Observer,
-    gpu: &crate::gpu::Gpu,
-) -> Result<MatchReport> {
-    search_with(scene, source, options, observer, Some(gpu)).await
 }
 
 #[cfg(test)]

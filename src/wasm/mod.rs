@@ -302,12 +302,12 @@ impl SceneHandle {
         let gpu = gpu::shared(allow_software).await;
         let result = match gpu.as_deref() {
             Some(gpu) => {
-                crate::search::search_on_gpu_async(
+                crate::search::search_on(
+                    crate::search::Executor::Device(gpu),
                     &self.scene,
                     &template.source,
                     &settings.options,
                     &mut progress,
-                    gpu,
                 )
                 .await
             }

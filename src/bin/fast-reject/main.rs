@@ -15,7 +15,7 @@ use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::{load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
-use fast_reject::search::{DescriptorKind, MatchOptions, MatchReport, search, search_on_gpu};
+use fast_reject::search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
 use fast_reject::template::TemplateSource;
 use folder_resolver::FolderResolver;
 use progress::ProgressLine;
@@ -174,7 +174,13 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         let load = start.elapsed().as_secs_f64() * 1e3;
         progress.phase("searching");
         let mut report = match &gpu {
-            Some(gpu) => search_on_gpu(&scene, &source, &options, &mut progress, gpu),
+            Some(gpu) => pollster::block_on(search_on(
+                Executor::Device(gpu),
+                &scene,
+                &source,
+                &options,
+                &mut progress,
+            )),
             None => search(&scene, &source, &options, &mut progress),
         }
         .map_err(|e| described(&e))?;
