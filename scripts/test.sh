@@ -13,7 +13,7 @@ if [[ -z ${VK_DRIVER_FILES:-} && -e $lavapipe ]]; then
   export VK_DRIVER_FILES=$lavapipe
 fi
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
-cargo test --release
+cargo test --release --features internals
 cargo build --release --bin fast-reject
 echo "== evaluate.py on the required scenes"
 scripts/evaluate.sh zoo-bunny remeshed-cow crowd-rocker select-cow-head fused-homer cluttered-bunny

@@ -64,9 +64,15 @@
 
 pub(crate) mod align;
 pub(crate) mod budget;
+#[cfg(feature = "internals")]
 pub mod cascade;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod cascade;
 pub(crate) mod clock;
+#[cfg(feature = "internals")]
 pub mod descriptor;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod descriptor;
 pub mod error;
 pub mod exec;
 #[cfg(feature = "gpu")]
@@ -79,7 +85,10 @@ pub mod mesh;
 pub(crate) mod options;
 pub mod scene;
 pub mod search;
+#[cfg(feature = "internals")]
 pub mod template;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod template;
 pub(crate) mod verify;
 pub(crate) mod voxel;
 // The JavaScript binding, for browsers and Node only (not WASI).
@@ -91,7 +100,7 @@ compile_error!(
 );
 
 pub use cascade::{LayerStats, Observer, Progress};
-pub use descriptor::ClutterPolicy;
+pub use descriptor::{ClutterPolicy, LayerDevice};
 pub use error::{Error, Format, MemoryEstimate, Result};
 pub use exec::Threads;
 /// The former name of [`Threads`].

@@ -107,14 +107,14 @@ pub struct MatchOptions {
     pub volume_threshold: f64,
     /// Harmonics stage threshold, in voxels of equivalent deviation.
     ///
-    /// The normalized distance of [`crate::descriptor::harmonics`].
+    /// The normalized distance of `crate::descriptor::harmonics`.
     /// Default: 0.8.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.harmonics_threshold))]
     pub harmonics_threshold: f64,
     /// Curvature stage threshold: the sum of squared differences of the
     /// Gaussian curvatures scaled by r_k^2.
     ///
-    /// See [`crate::descriptor::curvature`]. Default: 2.5.
+    /// See `crate::descriptor::curvature`. Default: 2.5.
     #[cfg_attr(feature = "cli", arg(long, long_help = None, default_value_t = MatchOptions::DEFAULT.curvature_threshold))]
     pub curvature_threshold: f64,
     /// Curvature: 0 makes every vertex a candidate; a positive value runs a
@@ -205,7 +205,7 @@ pub struct MatchOptions {
     #[cfg_attr(feature = "cli", arg(long, long_help = None))]
     pub keep_near_twins: bool,
     /// When extra material (other objects) excuses the outer layers; see
-    /// [`crate::descriptor::clutter`]. Default: [`ClutterPolicy::DEFAULT`].
+    /// `crate::descriptor::clutter`. Default: [`ClutterPolicy::DEFAULT`].
     /// The library's setting, for experiments; not on the CLI or in JavaScript.
     #[cfg_attr(feature = "serde", serde(skip))]
     #[cfg_attr(feature = "cli", arg(skip = ClutterPolicy::DEFAULT))]

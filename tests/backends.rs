@@ -3,11 +3,11 @@
 
 mod common;
 
+use fast_reject::TemplateSource;
 use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
-use fast_reject::template::TemplateSource;
 
 fn run(scene_bytes: &[u8], template: &TemplateSource, backend: Threads) -> (Scene, MatchReport) {
     let scene = Scene::new(
@@ -27,7 +27,7 @@ fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
     // Every part's voxels, at the padding a search uses.
     let lattice = scene_s
         .lattice_for(
-            fast_reject::template::VoxelTemplate::bounding_radius(template),
+            template.bounding_radius(),
             MatchOptions::DEFAULT.template_voxels,
         )
         .unwrap();

@@ -3,12 +3,12 @@
 //! The sunk copy is found, and the decoy is not, because missing material
 //! is not excused.
 
+use fast_reject::TemplateSource;
 use fast_reject::math::Vec3;
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::shapes::{cuboid, uv_sphere};
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
-use fast_reject::template::TemplateSource;
 
 /// An asymmetric figure about 1.4 units tall: a block, a head off to one
 /// side, a knob on the other (three overlapping shells).

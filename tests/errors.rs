@@ -1,11 +1,11 @@
 //! Bad input gets a typed error, never a panic.
 
+use fast_reject::TemplateSource;
 use fast_reject::math::Vec3;
 use fast_reject::mesh::io::load;
 use fast_reject::mesh::shapes::uv_sphere;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, search};
-use fast_reject::template::TemplateSource;
 use fast_reject::{Error, Format, TriMesh};
 
 const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
@@ -321,7 +321,7 @@ fn cancelling_stops_the_search() {
         radius: 0.8,
     };
     let mut layers_seen = 0;
-    let mut stop_after_two = |_: &fast_reject::cascade::LayerStats| {
+    let mut stop_after_two = |_: &fast_reject::LayerStats| {
         layers_seen += 1;
         if layers_seen == 2 {
             std::ops::ControlFlow::Break(())
@@ -344,7 +344,7 @@ fn cancelling_stops_a_search_of_parts_side_by_side() {
     let scene = Scene::new(read("scene.glb"), &SceneOptions::DEFAULT).unwrap();
     let template = TemplateSource::Model(read("template.glb"));
     let mut layers = Vec::new();
-    let mut record = |s: &fast_reject::cascade::LayerStats| {
+    let mut record = |s: &fast_reject::LayerStats| {
         layers.push((s.descriptor, s.layer, s.candidates, s.survivors));
         std::ops::ControlFlow::Continue(())
     };
@@ -367,7 +367,7 @@ fn cancelling_stops_a_search_of_parts_side_by_side() {
         "one part only: {layers:?}"
     );
     let mut seen = 0;
-    let mut stop_at_first = |_: &fast_reject::cascade::LayerStats| {
+    let mut stop_at_first = |_: &fast_reject::LayerStats| {
         seen += 1;
         std::ops::ControlFlow::Break(())
     };

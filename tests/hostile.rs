@@ -11,12 +11,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use fast_reject::cascade::Observer;
+use fast_reject::Observer;
+use fast_reject::TemplateSource;
 use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, search};
-use fast_reject::template::TemplateSource;
 use fast_reject::{Error, Format};
 
 /// The CLI with `args`, in at most 1 GiB of address space; fails the test
@@ -688,7 +688,7 @@ fn case_16_the_curvature_search_bounds_its_work() {
     assert_eq!(within.instances, unlimited.instances);
     // Enough to sample (6 002): refused before any layer is reported.
     let mut layers = 0;
-    let mut count = |_: &fast_reject::cascade::LayerStats| {
+    let mut count = |_: &fast_reject::LayerStats| {
         layers += 1;
         std::ops::ControlFlow::Continue(())
     };

@@ -1,5 +1,5 @@
 //! The grid's phase: a scene turned and moved by sub-voxel offsets gives
-//! the same instances (see `common::phase`; `examples/grid_phase.rs`
+//! the same instances (see `common::phase`; `experiments/grid_phase.rs`
 //! prints the same trials), on a generated scene and a real one.
 
 mod common;

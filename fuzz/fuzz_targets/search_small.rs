@@ -32,7 +32,7 @@ use fast_reject::exec::Threads;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, MatchOptions, search};
-use fast_reject::template::TemplateSource;
+use fast_reject::TemplateSource;
 use libfuzzer_sys::fuzz_target;
 
 /// Below the fuzzer's RSS limit (2 GiB, with AddressSanitizer's overhead on

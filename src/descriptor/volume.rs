@@ -58,6 +58,7 @@ impl<'a> VolumeDescriptor<'a> {
     /// A stage over the candidate voxels `points` of the scene `solid`, with
     /// the template's fractions at the same radii (world units), one list
     /// per anchor.
+    #[cfg(any(test, feature = "internals"))]
     pub fn new(
         solid: &'a Solid,
         points: &'a [[u16; 3]],
@@ -124,6 +125,7 @@ impl<'a> VolumeDescriptor<'a> {
             .collect()
     }
 
+    #[cfg(any(test, feature = "internals"))]
     fn bound_balls(solid: &Solid, radii: &[f64], backend: Threads) -> Vec<Ball> {
         let voxel = solid.bits().spec().voxel_size;
         Self::unbound_balls(radii, voxel, backend)
@@ -134,6 +136,7 @@ impl<'a> VolumeDescriptor<'a> {
 
     /// The descriptor of one voxel of any solid with this stage's voxel size:
     /// what the template side computes.
+    #[cfg(any(test, feature = "internals"))]
     pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Threads) -> Vec<f64> {
         let voxel = solid.bits().spec().voxel_size;
         Self::describe_with(

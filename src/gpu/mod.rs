@@ -5,7 +5,7 @@
 //! The device is made apart from the work and handed in ([`Gpu::new`]), so
 //! that tests can give it a software adapter (lavapipe, SwiftShader) and an
 //! embedder its own device; [`Gpu::request_async`] finds one the usual way.
-//! A [`GpuSolid`] is a [`crate::descriptor::LayerBatch`]: the stages ask it
+//! A [`GpuSolid`] is a `crate::descriptor::LayerBatch`: the stages ask it
 //! for a layer's values for all live points and wait without blocking (a
 //! browser answers on its event loop). Ball counts are integers, the same
 //! as the CPU's; harmonics signatures differ by f32 rounding only and are

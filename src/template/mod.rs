@@ -46,6 +46,15 @@ pub enum TemplateSource {
     },
 }
 
+impl TemplateSource {
+    /// The radius the template spans before it is built: a model's
+    /// bounding sphere, a selection's sphere. It sizes a search's voxels
+    /// ([`Scene::lattice_for`]).
+    pub fn bounding_radius(&self) -> f64 {
+        VoxelTemplate::bounding_radius(self)
+    }
+}
+
 /// Fails when the template is wider than the whole scene (the bounding
 /// box's diagonal): it cannot occur there, and its onion balls would be
 /// far larger than anything the scene holds. `size` is a model's diameter

@@ -7,10 +7,10 @@ pub mod phase;
 
 use std::path::PathBuf;
 
+use fast_reject::TemplateSource;
 use fast_reject::mesh::io::load;
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{MatchOptions, MatchReport, search};
-use fast_reject::template::TemplateSource;
 
 /// The folder of a shared scene; fails loudly when the shared data is absent,
 /// so that a missing checkout can never pass as success.

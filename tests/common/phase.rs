@@ -1,7 +1,7 @@
 //! Does a search depend on where the voxel grid falls? A scene moved by
 //! random sub-voxel offsets and turned about its centre, searched and
 //! scored against the truth moved the same way (the real-scenes issue's
-//! phase test; `examples/grid_phase.rs` prints it, `tests/phase.rs`
+//! phase test; `experiments/grid_phase.rs` prints it, `tests/phase.rs`
 //! asserts it).
 
 use std::path::Path;

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use fast_reject::Format;
+use fast_reject::TemplateSource;
 use fast_reject::error::FileText;
 use fast_reject::exec::Threads;
 use fast_reject::gpu::{AdapterChoice, Gpu};
@@ -16,7 +17,6 @@ use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::{load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
-use fast_reject::template::TemplateSource;
 use folder_resolver::FolderResolver;
 use progress::ProgressLine;
 

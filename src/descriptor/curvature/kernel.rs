@@ -1,5 +1,5 @@
 //! A smooth variant of the curvature layers, measured against the search's
-//! (examples/curvature_margin) and not used by it: each edge weighted by a
+//! (experiments/curvature_margin.rs) and not used by it: each edge weighted by a
 //! kernel of s = |x - c| / r that falls to 0 at the sphere, integrated
 //! along the edge, and the tensor divided either by the weight's integral
 //! over a flat disc or by its integral over the neighbourhood's surface

@@ -23,21 +23,30 @@
 
 mod ball_clip;
 mod bounds;
+#[cfg(any(test, feature = "internals"))]
 mod kernel;
 mod mirror;
 mod neighbourhood;
 mod sample;
 mod surface;
 
-pub use ball_clip::{ClippedTriangle, clip_triangle_to_ball, segment_in_ball};
+#[cfg(any(test, feature = "internals"))]
+pub use ball_clip::clip_triangle_to_ball;
+#[cfg(feature = "internals")]
+pub use ball_clip::{ClippedTriangle, segment_in_ball};
+#[cfg(feature = "internals")]
 pub use kernel::{KernelNorm, KernelShape, kernel_layers_at};
 pub(crate) use mirror::MirrorTest;
+#[cfg(any(test, feature = "internals"))]
 pub use mirror::handedness;
 pub use neighbourhood::CurvatureState;
+#[cfg(feature = "internals")]
 pub use sample::VertexGrid;
 pub(crate) use sample::{SAMPLE_REACH, SAMPLE_SLACK, VertexSample};
+pub use surface::Surface;
 pub(crate) use surface::surface_bytes;
-pub use surface::{CurvedEdge, Edge, Surface};
+#[cfg(feature = "internals")]
+pub use surface::{CurvedEdge, Edge};
 
 use super::OnionDescriptor;
 use crate::descriptor::Anchors;
@@ -119,6 +128,7 @@ impl<'a> CurvatureDescriptor<'a> {
 
     /// The Gaussian curvature of `surface` at vertex `v` for every radius:
     /// the template's descriptor, computed the same way as the scene's.
+    #[cfg(any(test, feature = "internals"))]
     pub fn describe(surface: &Surface, v: u32, radii: &[f64]) -> Vec<f64> {
         Self::layers_at(surface, v, radii)
             .iter()

@@ -138,7 +138,7 @@ impl VertexGrid {
 /// at 0.8 of it); 10 would cover them all but keeps so much of zoo-bunny
 /// that the final pass sees 109k of its 168k vertices. No slack serves CAD
 /// meshes: on real-saw-roller the nearest sample vertices of a copy are
-/// 100 to 8000 thresholds away (examples/sample_turnings).
+/// 100 to 8000 thresholds away (experiments/sample_turnings.rs).
 pub const SAMPLE_SLACK: f64 = 5.0;
 
 /// The final pass's candidates: every vertex within this many cells of a

@@ -39,8 +39,12 @@ use super::{ClutterPolicy, OnionDescriptor};
 mod sampler;
 mod transform;
 
-pub use sampler::{BLOCKS_PER_RADIUS, SphereSampler};
-pub use transform::{SphericalTransform, unfolded_tables};
+#[cfg(feature = "internals")]
+pub use sampler::BLOCKS_PER_RADIUS;
+pub use sampler::SphereSampler;
+pub use transform::SphericalTransform;
+#[cfg(any(feature = "gpu", feature = "internals"))]
+pub use transform::unfolded_tables;
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};

@@ -134,6 +134,7 @@ impl SphericalTransform {
 /// -sin m phi_k) for every sector, and `legendre[(m * DEGREES + l) * RINGS +
 /// j]` = the quadrature weight times the normalized Legendre value for every
 /// ring (0 for l < m). Computed in f64 like [`SphericalTransform`]'s.
+#[cfg(any(feature = "gpu", feature = "internals"))]
 pub fn unfolded_tables() -> (Vec<[f32; 2]>, Vec<f32>) {
     let mut fourier = Vec::with_capacity(SECTORS * DEGREES);
     for k in 0..SECTORS {

@@ -7,7 +7,7 @@
 //! sampled pass whose slack is at least every turning's need finds every
 //! occurrence the exact pass finds.
 //!
-//! cargo run --release --example sample_turnings -- SCENE [--select]
+//! cargo run --release --features internals --example sample_turnings -- SCENE [--select]
 //!     [--turnings N] [--spacing S]
 //!
 //! SCENE is a folder under `../shared/scenes` (or `$FAST_REJECT_SHARED/scenes`,

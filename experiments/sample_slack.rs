@@ -3,7 +3,7 @@
 //! vertex within the cover radius of s. A covering sample puts some sample
 //! vertex there, whatever the turning of the scene.
 //!
-//! cargo run --release --example sample_slack -- SCENE [--select] [RHO...]
+//! cargo run --release --features internals --example sample_slack -- SCENE [--select] [RHO...]
 //!
 //! RHO is the cover radius in units of r_1; the scenes come from
 //! `../shared/scenes`.

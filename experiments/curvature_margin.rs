@@ -34,7 +34,7 @@
 //! inequality) over the rise the scene needs; at least 1 where it covers
 //! the scene, and in brackets the share of vertices it keeps.
 //!
-//! cargo run --release --example curvature_margin -- [--descriptors
+//! cargo run --release --features internals --example curvature_margin -- [--descriptors
 //! exact,kernel-disc,kernel-area,flat-disc,flat-area] SCENE...
 //!
 //! Model-template scenes of `../shared/scenes` (truth.json's transforms

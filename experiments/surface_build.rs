@@ -1,7 +1,7 @@
 //! Times the curvature descriptor's surface build (weld, adjacency,
 //! patches) alone: the fastest of N builds of one file's mesh.
 //!
-//! cargo run --release --example surface_build -- FILE [N] [serial]
+//! cargo run --release --features internals --example surface_build -- FILE [N] [serial]
 
 use fast_reject::Threads;
 use fast_reject::descriptor::curvature::Surface;
