@@ -50,10 +50,7 @@ fn anchors_of(template: TriMesh) -> (Vec<Vec3>, f64) {
     let source = TemplateSource::Model(template);
     let options = MatchOptions::DEFAULT;
     let lattice = scene
-        .lattice_for(
-            VoxelTemplate::bounding_radius(&source),
-            options.template_voxels,
-        )
+        .lattice_for(source.bounding_radius(), options.template_voxels)
         .unwrap();
     let t = VoxelTemplate::new(&source, &scene, &lattice, &options).unwrap();
     let anchors = (0..t.anchors().len())

@@ -51,7 +51,10 @@ impl TemplateSource {
     /// bounding sphere, a selection's sphere. It sizes a search's voxels
     /// ([`Scene::lattice_for`]).
     pub fn bounding_radius(&self) -> f64 {
-        VoxelTemplate::bounding_radius(self)
+        match self {
+            TemplateSource::Model(model) => voxel::bounding_sphere(model).radius,
+            TemplateSource::Selection { radius, .. } => *radius,
+        }
     }
 }
 

@@ -313,15 +313,6 @@ impl VoxelTemplate {
         })
     }
 
-    /// The radius a template spans before it is built: a model's bounding
-    /// sphere, a selection's sphere (what sizes the search's voxels).
-    pub fn bounding_radius(source: &TemplateSource) -> f64 {
-        match source {
-            TemplateSource::Model(model) => bounding_sphere(model).radius,
-            TemplateSource::Selection { radius, .. } => *radius,
-        }
-    }
-
     /// c_T: in the model's coordinates, or in world coordinates for a selection.
     pub fn center(&self) -> Vec3 {
         self.center
@@ -410,7 +401,7 @@ impl VoxelTemplate {
 }
 
 /// The minimal bounding sphere of the vertices `mesh`'s triangles use.
-fn bounding_sphere(mesh: &TriMesh) -> Sphere {
+pub(super) fn bounding_sphere(mesh: &TriMesh) -> Sphere {
     // Each vertex once, whatever the number of triangles using it.
     let mut is_used = vec![false; mesh.positions().len()];
     for &i in mesh.triangles().iter().flatten() {

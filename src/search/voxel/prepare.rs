@@ -60,10 +60,7 @@ impl<'a> PartSearch<'a> {
     ) -> Result<PartSearch<'a>> {
         // A small template refines the grid until it spans enough voxels.
         let lattice = if options.template_voxels > 0.0 {
-            scene.lattice_for(
-                VoxelTemplate::bounding_radius(source),
-                options.template_voxels,
-            )?
+            scene.lattice_for(source.bounding_radius(), options.template_voxels)?
         } else {
             scene.lattice()
         };
