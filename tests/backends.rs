@@ -32,11 +32,10 @@ fn assert_identical(scene_bytes: &[u8], template: &TemplateSource) {
         )
         .unwrap();
     let reach = serial.template.radius / lattice.spec.voxel_size;
-    let held = fast_reject::MemoryEstimate::default();
     let parts = |scene: &Scene| scene.parts().to_vec();
     for (i, (a, b)) in parts(&scene_s).iter().zip(parts(&scene_p)).enumerate() {
-        let s = scene_s.voxelize_part(a, &lattice, reach, &held).unwrap();
-        let p = scene_p.voxelize_part(&b, &lattice, reach, &held).unwrap();
+        let s = scene_s.voxelize_part(a, &lattice, reach).unwrap();
+        let p = scene_p.voxelize_part(&b, &lattice, reach).unwrap();
         assert!(s.grid() == p.grid(), "voxel grids of part {i} differ");
         assert_eq!(s.skin(), p.skin());
         assert!(s.near_surface() == p.near_surface());

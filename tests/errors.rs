@@ -245,7 +245,7 @@ fn a_grid_beyond_the_memory_budget_is_an_error() {
     )
     .unwrap_err();
     assert!(matches!(e, Error::OverBudget { .. }), "{e}");
-    assert!(e.to_string().contains("no resolution fits"), "{e}");
+    assert!(e.to_string().contains("passes the budget alone"), "{e}");
     assert!(matches!(
         Scene::new(mesh, &SceneOptions::DEFAULT.with_resolution(20_000)),
         Err(Error::InvalidOption { .. })

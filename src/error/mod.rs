@@ -354,20 +354,15 @@ impl Error {
     }
 }
 
-/// The check that turns an estimate into an error sits here, not in
-/// `crate::budget`, so that the budget names nothing above it.
-impl MemoryEstimate {
-    /// Fails with [`Error::OverBudget`] when the total passes `budget`;
-    /// `advice` says what to change.
-    pub(crate) fn check(&self, budget: u64, advice: impl FnOnce() -> String) -> Result<()> {
-        if self.total() <= budget {
-            return Ok(());
+/// The conversion sits here, not in `crate::budget`, so that the budget
+/// names nothing above it.
+impl From<crate::budget::Exceeded> for Error {
+    fn from(e: crate::budget::Exceeded) -> Error {
+        Error::OverBudget {
+            estimate: e.estimate,
+            budget: e.budget,
+            advice: e.advice,
         }
-        Err(Error::OverBudget {
-            estimate: self.clone(),
-            budget,
-            advice: advice(),
-        })
     }
 }
 

@@ -3,7 +3,7 @@
 //! harmonics candidates), or the welded surface (the curvature candidates).
 //! Built once, searched any number of times.
 
-use crate::budget::MemoryEstimate;
+use crate::budget::{Budget, Item};
 use crate::clock::now_ms;
 use crate::descriptor::curvature::Surface;
 use crate::descriptor::curvature::surface_bytes;
@@ -177,44 +177,46 @@ impl Scene {
             options.backend,
         )?;
         let parts = split_parts(&mesh, options.backend);
-        let budget = options.memory_budget;
         let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
-        let fits = |spec: &GridSpec| {
-            let largest = parts
+        let largest_grids = |spec: &GridSpec| {
+            parts
                 .iter()
                 .map(|p| {
                     spec.crop(p.bounds(), PADDING)
                         .map_or(u64::MAX, |s| voxel_bytes(&s))
                 })
                 .max()
-                .unwrap_or_default();
-            let mut estimate = MemoryEstimate::new();
-            estimate
-                .add("the mesh", mesh_estimate)
-                .add("the largest part's voxel grids and count pyramid", largest);
-            estimate
+                .unwrap_or_default()
         };
-        fits(&spec).check(budget, || {
-            // The largest resolution whose grids fit, found with the same
-            // estimate.
-            let fitting = (8..options.resolution).rev().find(|&r| {
-                GridSpec::for_scene(mesh.bounds(), r)
-                    .is_ok_and(|spec| fits(&spec).total() <= budget)
-            });
-            match fitting {
-                Some(r) => format!(
-                    "lower the resolution to at most {r} (now {}), or raise the memory budget",
-                    options.resolution
-                ),
-                None => "no resolution fits: raise the memory budget, or split the scene".into(),
-            }
-        })?;
+        // The largest resolution whose grids fit, found with the same
+        // estimate.
+        let fitting = || {
+            (8..options.resolution).rev().find(|&r| {
+                GridSpec::for_scene(mesh.bounds(), r).is_ok_and(|spec| {
+                    mesh_estimate.saturating_add(largest_grids(&spec)) <= options.memory_budget
+                })
+            })
+        };
+        Budget::new(options.memory_budget)
+            .reserve(
+                Item::Mesh {
+                    triangles: mesh.triangles().len(),
+                },
+                mesh_estimate,
+            )?
+            .reserve(
+                Item::LargestPartGrids {
+                    resolution: options.resolution,
+                    fitting: &fitting,
+                },
+                largest_grids(&spec),
+            )?;
         Ok(Scene {
             mesh,
             spec,
             resolution: options.resolution,
             backend: options.backend,
-            memory_budget: budget,
+            memory_budget: options.memory_budget,
             max_voxel_work: options.max_voxel_work,
             parts,
             surface: OnceLock::new(),
@@ -291,27 +293,33 @@ impl Scene {
 
     /// Voxelizes `part` on its own for a template reaching `reach` voxels
     /// from its centre, after checking that its grids fit the memory budget
-    /// beside `held` (what the search holds already).
+    /// beside the scene's mesh.
     pub fn voxelize_part(
         &self,
         part: &ScenePart,
         lattice: &Lattice,
         reach: f64,
-        held: &MemoryEstimate,
+    ) -> Result<PartVoxels> {
+        self.voxelize_part_beside(part, lattice, reach, &self.budget())
+    }
+
+    /// [`Scene::voxelize_part`] beside what a search holds already.
+    pub(crate) fn voxelize_part_beside(
+        &self,
+        part: &ScenePart,
+        lattice: &Lattice,
+        reach: f64,
+        held: &Budget,
     ) -> Result<PartVoxels> {
         let spec = self.part_spec(part, lattice, reach)?;
-        let mut estimate = held.clone();
-        estimate.add("a part's voxel grids and count pyramid", voxel_bytes(&spec));
-        estimate.check(self.memory_budget, || {
-            format!(
-                "a part of {} triangles needs {} x {} x {} voxels at resolution {}: lower the resolution, or raise the memory budget",
-                part.triangles().len(),
-                spec.dims[0],
-                spec.dims[1],
-                spec.dims[2],
-                lattice.resolution
-            )
-        })?;
+        held.clone().reserve(
+            Item::PartGrids {
+                triangles: part.triangles().len(),
+                dims: spec.dims,
+                resolution: lattice.resolution,
+            },
+            voxel_bytes(&spec),
+        )?;
         // The part's own mesh is part of voxelizing it.
         let started = now_ms();
         let mesh = self.mesh.subset(part.triangles());
@@ -335,27 +343,20 @@ impl Scene {
 
     /// Voxelizes the window of `part` around `focus`, padded by `reach`
     /// voxels: what of a part too large for one grid a selection reads.
-    pub fn voxelize_around(
+    pub(crate) fn voxelize_around(
         &self,
         part: &ScenePart,
         lattice: &Lattice,
         focus: Aabb,
         reach: f64,
-        held: &MemoryEstimate,
+        held: &Budget,
     ) -> Result<PartVoxels> {
         let pad = reach.ceil().clamp(0.0, f64::from(u16::MAX)) as usize + 2;
         let spec = lattice.spec.crop(focus, pad)?;
         let windowed = WindowedMesh::new(self.mesh.subset(part.triangles()), self.backend);
-        let mut estimate = held.clone();
-        estimate
-            .add("a large part's mesh for its windows", windowed.bytes())
-            .add(
-                "the selection's voxel grids and count pyramid",
-                voxel_bytes(&spec),
-            );
-        estimate.check(self.memory_budget, || {
-            "the selection's window does not fit: pick a smaller sphere, or raise the memory budget".into()
-        })?;
+        held.clone()
+            .reserve(Item::WindowMesh { selection: true }, windowed.bytes())?
+            .reserve(Item::WindowGrids { selection: true }, voxel_bytes(&spec))?;
         Ok(PartVoxels::build_window(&windowed, &spec, self.backend))
     }
 
@@ -414,7 +415,7 @@ impl Scene {
     /// The estimate of what the scene holds between searches: its mesh, and
     /// its welded surface once built.
     pub fn built_bytes(&self) -> u64 {
-        self.mesh_estimate().total()
+        mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len())
             + if self.surface.get().is_some() {
                 surface_bytes(self.mesh.triangles().len())
             } else {
@@ -422,15 +423,17 @@ impl Scene {
             }
     }
 
-    /// The scene's mesh as a memory estimate (a search adds its own
-    /// structures to it).
-    pub(crate) fn mesh_estimate(&self) -> MemoryEstimate {
-        let mut estimate = MemoryEstimate::new();
-        estimate.add(
-            "the mesh",
+    /// The memory budget with the scene's mesh held (a search reserves
+    /// its own structures beside it).
+    pub(crate) fn budget(&self) -> Budget {
+        let mut budget = Budget::new(self.memory_budget);
+        budget.hold(
+            Item::Mesh {
+                triangles: self.mesh.triangles().len(),
+            },
             mesh_bytes(self.mesh.positions().len(), self.mesh.triangles().len()),
         );
-        estimate
+        budget
     }
 
     /// The resolution it is voxelized at.

@@ -2,7 +2,7 @@
 //! candidates, the mirror test, then grouping.
 
 use super::report::{MatchReport, SurfaceInfo, TemplateInfo, Timings};
-use crate::budget::MemoryEstimate;
+use crate::budget::Item;
 use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Survivor, run_cascade_in_chunks};
 use crate::clock::now_ms;
@@ -250,26 +250,32 @@ fn too_much_work(work: f64, balls: f64, limit: f64) -> Error {
 /// fits the scene's memory budget.
 fn check_surface_search(scene: &Scene, source: &TemplateSource) -> Result<()> {
     let mesh = scene.mesh();
-    let mut estimate = MemoryEstimate::new();
-    estimate
-        .add(
-            "the mesh",
-            mesh_bytes(mesh.positions().len(), mesh.triangles().len()),
-        )
-        .add("welded surface", surface_bytes(mesh.triangles().len()))
-        .add("candidate state", candidate_bytes(mesh.positions().len()));
+    let mut held = scene.budget();
+    held.reserve(
+        Item::Surface {
+            triangles: mesh.triangles().len(),
+        },
+        surface_bytes(mesh.triangles().len()),
+    )?
+    .reserve(
+        Item::SurfaceCandidates {
+            vertices: mesh.positions().len(),
+        },
+        candidate_bytes(mesh.positions().len()),
+    )?;
     if let TemplateSource::Model(model) = source {
-        estimate
-            .add(
-                "the template's mesh",
-                mesh_bytes(model.positions().len(), model.triangles().len()),
-            )
-            .add("welded surface", surface_bytes(model.triangles().len()));
+        held.reserve(
+            Item::TemplateMesh {
+                triangles: model.triangles().len(),
+            },
+            mesh_bytes(model.positions().len(), model.triangles().len()),
+        )?
+        .reserve(
+            Item::Surface {
+                triangles: model.triangles().len(),
+            },
+            surface_bytes(model.triangles().len()),
+        )?;
     }
-    estimate.check(scene.memory_budget(), || {
-        format!(
-            "the scene has {} triangles: simplify the mesh, or raise the memory budget",
-            mesh.triangles().len()
-        )
-    })
+    Ok(())
 }

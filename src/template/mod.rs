@@ -22,7 +22,7 @@ mod voxel;
 
 pub use curvature::CurvatureTemplate;
 pub use voxel::VoxelTemplate;
-pub(crate) use voxel::add_ball_tables;
+pub(crate) use voxel::ball_table_bytes;
 
 use crate::error::{Error, Result};
 use crate::math::Vec3;

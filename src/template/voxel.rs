@@ -6,7 +6,7 @@ use super::anchor::{Anchor, Thresholds, further_anchors, stable_anchor};
 use super::{
     MIN_RADIUS_VOXELS, TemplateSource, check_extent, check_layers, evenly_spaced, snap_selection,
 };
-use crate::budget::MemoryEstimate;
+use crate::budget::{Item, TemplatePiece, TemplateReach};
 use crate::descriptor::volume::BLOCKS_PER_RADIUS;
 use crate::descriptor::{Anchors, all_anchors};
 use crate::error::{Error, Result};
@@ -84,23 +84,28 @@ fn check_model_fits(
         scene.max_voxel_work(),
         scene.backend(),
     )?;
-    let mut estimate = scene.mesh_estimate();
-    estimate
-        .add(
-            "the template's mesh",
+    let reach = TemplateReach {
+        outer_voxels: sphere.radius / voxel_size,
+        resolution: lattice.resolution,
+        selection: false,
+    };
+    scene
+        .budget()
+        .reserve(
+            Item::TemplateMesh {
+                triangles: model.triangles().len(),
+            },
             mesh_bytes(model.positions().len(), model.triangles().len()),
-        )
-        .add("the template's voxel grids", voxel_bytes(spec))
-        .add(
-            "the template turned (its anchor's test)",
+        )?
+        .reserve(
+            Item::Template(TemplatePiece::Grids, reach),
+            voxel_bytes(spec),
+        )?
+        .reserve(
+            Item::Template(TemplatePiece::Turned, reach),
             voxel_bytes(&turned),
-        );
-    estimate.check(scene.memory_budget(), || {
-        format!(
-            "lower the resolution (now {}), or raise the memory budget",
-            lattice.resolution
-        )
-    })
+        )?;
+    Ok(())
 }
 
 /// A template prepared against a scene.
@@ -253,23 +258,24 @@ impl VoxelTemplate {
         let part = scene.part_of_triangle(scene.mesh().closest_point(snapped).triangle);
         // The search's ball tables first: they grow faster with the radius
         // than the part's grid.
-        let mut held = scene.mesh_estimate();
+        let mut held = scene.budget();
         let radii_voxels: Vec<f64> = evenly_spaced(radius, options.layers)
             .iter()
             .map(|r| r / voxel_size)
             .collect();
-        add_ball_tables(&mut held, &radii_voxels);
-        held.check(scene.memory_budget(), || {
-            format!(
-                "the selection's radius is {:.0} voxels at resolution {}: lower the resolution, pick a smaller sphere, or raise the memory budget",
-                radius / voxel_size,
-                lattice.resolution
-            )
-        })?;
+        let reach = TemplateReach {
+            outer_voxels: radius / voxel_size,
+            resolution: lattice.resolution,
+            selection: true,
+        };
+        held.reserve(
+            Item::Template(TemplatePiece::BallTables, reach),
+            ball_table_bytes(&radii_voxels),
+        )?;
         let selected = &scene.parts()[part];
         let whole_part = scene.fits_one_grid(selected, lattice, radius / voxel_size);
         let voxels = if whole_part {
-            scene.voxelize_part(selected, lattice, radius / voxel_size, &held)?
+            scene.voxelize_part_beside(selected, lattice, radius / voxel_size, &held)?
         } else {
             // A part too large for one grid: the sphere's window.
             let sphere = Aabb {
@@ -434,14 +440,11 @@ fn too_small(radius_voxels: f64, resolution: u32) -> Error {
     }
 }
 
-/// Adds the run tables of the volume and verification balls for layer
-/// radii of `radii` voxels.
-pub(crate) fn add_ball_tables(estimate: &mut MemoryEstimate, radii: &[f64]) {
-    for &r in radii {
-        estimate.add(
-            "ball tables",
-            ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)),
-        );
-        estimate.add("ball tables", ball_bytes(r, moment_level(r)));
-    }
+/// The run tables of the volume and verification balls for layer radii of
+/// `radii` voxels.
+pub(crate) fn ball_table_bytes(radii: &[f64]) -> u64 {
+    radii.iter().fold(0u64, |sum, &r| {
+        sum.saturating_add(ball_bytes(r, level_for_radius(r, BLOCKS_PER_RADIUS)))
+            .saturating_add(ball_bytes(r, moment_level(r)))
+    })
 }

@@ -7,6 +7,7 @@ use super::parts::Runner;
 use super::prepare::PartSearch;
 use super::waves::Found;
 use super::windows::Window;
+use crate::budget::Item;
 use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
 use crate::clock::now_ms;
@@ -46,21 +47,27 @@ impl PartSearch<'_> {
             n if n < self.template.shells() => 0,
             _ => self.template.fallback_anchors(),
         };
-        let mut estimate = runner.held.clone();
-        estimate.add("candidate state", candidate_bytes(candidates.len()));
+        let resolution = self.lattice.resolution;
+        let mut held = runner.held.clone();
+        held.reserve(
+            Item::Candidates {
+                candidates: candidates.len(),
+                resolution,
+                kept: false,
+            },
+            candidate_bytes(candidates.len()),
+        )?;
         if fallback != 0 {
-            estimate.add("candidates kept", 4 * candidates.len() as u64);
+            let item = Item::Candidates {
+                candidates: candidates.len(),
+                resolution,
+                kept: true,
+            };
+            held.reserve(item, 4 * candidates.len() as u64)?;
         }
         if let Some(near) = near {
-            estimate.add("cells near vertices", near.bytes());
+            held.reserve(Item::NearCells { resolution }, near.bytes())?;
         }
-        estimate.check(self.scene.memory_budget(), || {
-            format!(
-                "a part has {} candidate points at resolution {}: lower the resolution (they fall with its square), raise the candidate spacing, or raise the memory budget",
-                candidates.len(),
-                self.lattice.resolution
-            )
-        })?;
         let kept = match fallback {
             0 => Vec::new(),
             _ => candidates.clone(),

@@ -9,7 +9,7 @@ use super::prepare::PartSearch;
 use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share_wave_time};
 use super::windows::{Window, part_windows};
 use super::work::{PROBE_FROM, probe, too_much_work, work as part_work};
-use crate::budget::MemoryEstimate;
+use crate::budget::{Budget, Item};
 use crate::cascade::{LayerStats, Observer, Progress, finished};
 use crate::clock::now_ms;
 use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
@@ -27,7 +27,7 @@ pub(super) struct Runner<'r, 'o> {
     pub(super) device: Option<&'r dyn LayerDevice>,
     /// Where its kernels wait for the others of its wave.
     pub(super) wave: Option<&'r dyn WaveQueue>,
-    pub(super) held: MemoryEstimate,
+    pub(super) held: Budget,
 }
 
 impl<'a> PartSearch<'a> {
@@ -166,7 +166,7 @@ impl<'a> PartSearch<'a> {
     async fn device_wave(
         &self,
         parts: &[(usize, &ScenePart)],
-        wave: &[(usize, MemoryEstimate)],
+        wave: &[(usize, Budget)],
         observer: &RefCell<&mut dyn Observer>,
         device: &dyn LayerDevice,
     ) -> Result<Vec<Found>> {
@@ -217,7 +217,7 @@ impl<'a> PartSearch<'a> {
     fn cpu_wave(
         &self,
         parts: &[(usize, &ScenePart)],
-        wave: &[(usize, MemoryEstimate)],
+        wave: &[(usize, Budget)],
         observer: &RefCell<&mut dyn Observer>,
     ) -> Result<Vec<Found>> {
         let started = now_ms();
@@ -264,7 +264,7 @@ impl<'a> PartSearch<'a> {
         parts: &[(usize, &ScenePart)],
         originals: &[usize],
         max_parts: usize,
-    ) -> Vec<Vec<(usize, MemoryEstimate)>> {
+    ) -> Vec<Vec<(usize, Budget)>> {
         let reach = self.template.radius() / self.lattice.spec.voxel_size;
         let grids: Vec<Option<u64>> = originals
             .iter()
@@ -282,7 +282,7 @@ impl<'a> PartSearch<'a> {
                 }
             })
             .collect();
-        let free = self.scene.memory_budget().saturating_sub(self.held.total());
+        let free = self.held.free();
         plan_waves(&grids, free, max_parts)
             .into_iter()
             .map(|wave| {
@@ -290,7 +290,7 @@ impl<'a> PartSearch<'a> {
                     .map(|(n, others)| {
                         let mut held = self.held.clone();
                         if others > 0 {
-                            held.add("the other parts searched beside it", others);
+                            held.hold(Item::OtherParts, others);
                         }
                         (originals[n], held)
                     })
@@ -341,9 +341,12 @@ impl<'a> PartSearch<'a> {
             let voxels = match self.template.voxels_of_part(index) {
                 Some(voxels) => voxels,
                 None => {
-                    fresh = self
-                        .scene
-                        .voxelize_part(part, &self.lattice, reach, &runner.held)?;
+                    fresh = self.scene.voxelize_part_beside(
+                        part,
+                        &self.lattice,
+                        reach,
+                        &runner.held,
+                    )?;
                     found.timings.voxelize += fresh.voxelize_ms();
                     &fresh
                 }
@@ -369,7 +372,7 @@ impl<'a> PartSearch<'a> {
         let backend = self.options.backend;
         let windowed = WindowedMesh::new(self.scene.mesh().subset(part.triangles()), backend);
         let mut held = runner.held.clone();
-        held.add("a large part's mesh for its windows", windowed.bytes());
+        held.reserve(Item::WindowMesh { selection: false }, windowed.bytes())?;
         let mut instances: Vec<Instance> = Vec::new();
         for (number, window) in windows.iter().enumerate() {
             let progress = Progress {
@@ -393,15 +396,10 @@ impl<'a> PartSearch<'a> {
                 }
                 None => window,
             };
-            let mut estimate = held.clone();
-            estimate.add(
-                "a window's voxel grids and count pyramid",
+            held.clone().reserve(
+                Item::WindowGrids { selection: false },
                 voxel_bytes(&window.spec),
-            );
-            estimate.check(self.scene.memory_budget(), || {
-                "a large part's window does not fit beside the search: raise the memory budget"
-                    .into()
-            })?;
+            )?;
             let voxels = PartVoxels::build_window(&windowed, &window.spec, backend);
             found.windows += 1;
             found.timings.voxelize += voxels.voxelize_ms();

@@ -6,7 +6,7 @@
 use super::near_vertices::{self, template_gap};
 use super::signatures::{Signatures, signatures};
 use crate::align::SurfaceSamples;
-use crate::budget::MemoryEstimate;
+use crate::budget::{Budget, Item, TemplatePiece, TemplateReach};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
 use crate::descriptor::{SphericalTransform, VolumeDescriptor};
 use crate::error::Result;
@@ -16,7 +16,7 @@ use crate::mesh::mesh_bytes;
 use crate::mesh::{TriMesh, connected_components};
 use crate::options::MatchOptions;
 use crate::scene::{Lattice, Parts, Scene};
-use crate::template::add_ball_tables;
+use crate::template::ball_table_bytes;
 use crate::template::{TemplateSource, VoxelTemplate};
 use crate::verify::Verifier;
 use crate::voxel::Ball;
@@ -47,7 +47,7 @@ pub(super) struct PartSearch<'a> {
     /// How far from a vertex of its part a copy's anchor can lie.
     pub(super) vertex_reach: f64,
     /// What the search holds besides a part's grids.
-    pub(super) held: MemoryEstimate,
+    pub(super) held: Budget,
 }
 
 impl<'a> PartSearch<'a> {
@@ -68,10 +68,7 @@ impl<'a> PartSearch<'a> {
         let voxel = lattice.spec.voxel_size;
         let radii_voxels: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
         let surface = template_surface(source, scene, &template);
-        let held = search_estimate(scene, &template, &surface, &radii_voxels);
-        held.check(scene.memory_budget(), || {
-            too_much_for_template(&radii_voxels, &lattice)
-        })?;
+        let held = search_budget(scene, &template, &surface, &radii_voxels, &lattice)?;
         let transform = SphericalTransform::new();
         // The balls' tables are built once: read at the template's one
         // point, then bound to each part's layout.
@@ -216,32 +213,32 @@ fn template_samples(
 const ALIGN_SAMPLES: usize = 1024;
 
 /// What a voxel search holds besides the part it searches: the scene's
-/// mesh, the template's voxel grids and the run tables of the volume and
-/// verification balls.
-fn search_estimate(
+/// mesh, the template's surface and voxel grids and the run tables of the
+/// volume and verification balls.
+fn search_budget(
     scene: &Scene,
     template: &VoxelTemplate,
     surface: &TriMesh,
     radii: &[f64],
-) -> MemoryEstimate {
-    let mut estimate = scene.mesh_estimate();
-    estimate.add(
-        "the template's surface",
+    lattice: &Lattice,
+) -> Result<Budget> {
+    let reach = TemplateReach {
+        outer_voxels: radii.last().copied().unwrap_or_default(),
+        resolution: lattice.resolution,
+        selection: false,
+    };
+    let mut held = scene.budget();
+    held.reserve(
+        Item::Template(TemplatePiece::Surface, reach),
         mesh_bytes(surface.positions().len(), surface.triangles().len()),
-    );
-    estimate.add(
-        "the template's voxel grids",
+    )?
+    .reserve(
+        Item::Template(TemplatePiece::Grids, reach),
         voxel_bytes(template.voxels().grid().spec()),
-    );
-    add_ball_tables(&mut estimate, radii);
-    estimate
-}
-
-/// The advice when the template's own structures pass the budget.
-fn too_much_for_template(radii: &[f64], lattice: &Lattice) -> String {
-    let outer = radii.last().copied().unwrap_or_default();
-    format!(
-        "the template's outer radius is {outer:.0} voxels at resolution {}: lower the resolution, pick a smaller template, or raise the memory budget",
-        lattice.resolution
-    )
+    )?
+    .reserve(
+        Item::Template(TemplatePiece::BallTables, reach),
+        ball_table_bytes(radii),
+    )?;
+    Ok(held)
 }

@@ -12,7 +12,7 @@
 use std::collections::BTreeSet;
 
 use super::near_vertices::NearVertices;
-use crate::budget::MemoryEstimate;
+use crate::budget::{Budget, Item};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, Scene, ScenePart};
@@ -252,21 +252,17 @@ fn too_many_windows(
     windows: f64,
     most: usize,
 ) -> Error {
-    let mut estimate = MemoryEstimate::new();
-    estimate.add(
-        "the list of a large part's windows",
-        (windows * LISTED_BYTES as f64).min(u64::MAX as f64) as u64,
-    );
     let extent = part.bounds().extent().max_element();
-    Error::OverBudget {
-        estimate,
-        budget: scene.memory_budget(),
-        advice: format!(
-            "a part {} across is {:.0} voxels wide at the template's voxel size and needs {windows:.3e} windows, over the {most} a list may hold: the template is tiny next to it; lower --template-voxels, search a region of the scene (a selection), or raise the memory budget",
-            crate::error::length(extent),
-            extent / lattice.spec.voxel_size,
-        ),
-    }
+    let item = Item::WindowList {
+        extent: crate::error::length(extent),
+        extent_voxels: extent / lattice.spec.voxel_size,
+        windows,
+        most,
+    };
+    let bytes = (windows * LISTED_BYTES as f64).min(u64::MAX as f64) as u64;
+    Budget::new(scene.memory_budget())
+        .refuse(item, bytes)
+        .into()
 }
 
 #[cfg(test)]
