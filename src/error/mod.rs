@@ -57,11 +57,13 @@ pub enum Error {
     /// The bytes are not any supported mesh format.
     #[error(
         "unrecognized mesh data: expected glTF (.glb/.gltf), OBJ, PLY or STL{}",
-        if *.len == 0 { " (the input is empty)".to_string() } else { String::new() }
+        if *.len == 0 { " (the input is empty)".to_string() } else { format!("; the content starts with {}", .start) }
     )]
     UnknownFormat {
         /// Size of the input in bytes.
         len: usize,
+        /// What the input starts with: a line of text, or bytes in hex.
+        start: FileText,
     },
 
     /// The file claims a format but its content is malformed or cut short.

@@ -19,7 +19,7 @@ mod stl;
 pub use resource::{NoResources, ResourceError, ResourcePath, ResourceResolver};
 
 use super::TriMesh;
-use crate::error::{Error, Format, Result};
+use crate::error::{Error, FileText, Format, Result};
 
 /// The most vertices a loaded mesh may have: 2^25 (about 33 million,
 /// 400 MB of positions). A glTF file can place one mesh on many nodes, so a
@@ -131,7 +131,10 @@ pub fn load_within(
 ) -> Result<TriMesh> {
     let format = match format {
         Some(f) => f,
-        None => sniff(bytes).ok_or(Error::UnknownFormat { len: bytes.len() })?,
+        None => sniff(bytes).ok_or_else(|| Error::UnknownFormat {
+            len: bytes.len(),
+            start: FileText::new(&describe_start(bytes)),
+        })?,
     };
     if bytes.is_empty() {
         return Err(Error::malformed(format, "start", "the input is empty"));
@@ -235,6 +238,41 @@ pub fn sniff(bytes: &[u8]) -> Option<Format> {
     None
 }
 
+/// What `bytes` start with, for a message about content no loader
+/// recognizes: a file's first line where it is text (a README saved as
+/// `.glb`), else its first bytes in hex. Escaped and bounded by the
+/// [`FileText`] that shows it.
+pub(crate) fn describe_start(bytes: &[u8]) -> String {
+    const SHOWN: usize = 48;
+    let head = &bytes[..bytes.len().min(SHOWN)];
+    let text = match std::str::from_utf8(head) {
+        Ok(t) => Some(t),
+        // A character cut at the edge of the head is still text.
+        Err(e) if e.error_len().is_none() => std::str::from_utf8(&head[..e.valid_up_to()]).ok(),
+        Err(_) => None,
+    };
+    let printable = |t: &str| {
+        !t.is_empty()
+            && t.chars()
+                .all(|c| !c.is_control() || matches!(c, '\t' | '\n' | '\r'))
+    };
+    match text.map(|t| t.trim_start_matches('\u{feff}').trim_start()) {
+        Some(t) if printable(t) => {
+            let line = t.lines().next().unwrap_or_default().trim_end();
+            let more = if line.len() < t.trim_end().len() || bytes.len() > SHOWN {
+                "..."
+            } else {
+                ""
+            };
+            format!("text \"{line}{more}\"")
+        }
+        _ => {
+            let hex: Vec<String> = head.iter().take(8).map(|b| format!("{b:02x}")).collect();
+            format!("binary data (bytes {})", hex.join(" "))
+        }
+    }
+}
+
 /// Skips a UTF-8 byte order mark and leading whitespace.
 fn trim_start(bytes: &[u8]) -> &[u8] {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -317,15 +355,38 @@ mod tests {
     fn unknown_and_empty_inputs_are_typed_errors() {
         assert!(matches!(
             load(b"", None),
-            Err(Error::UnknownFormat { len: 0 })
+            Err(Error::UnknownFormat { len: 0, .. })
         ));
-        assert!(matches!(
-            load(&[0xde, 0xad, 0xbe, 0xef], None),
-            Err(Error::UnknownFormat { .. })
-        ));
+        let e = load(&[0xde, 0xad, 0xbe, 0xef], None).unwrap_err();
+        assert!(matches!(e, Error::UnknownFormat { .. }), "{e}");
+        assert!(
+            e.to_string().ends_with("binary data (bytes de ad be ef)"),
+            "{e}"
+        );
+        let e = load(b"hello world\nsecond line", None).unwrap_err();
+        assert!(e.to_string().ends_with("text \"hello world...\""), "{e}");
         for f in [Format::Gltf, Format::Obj, Format::Ply, Format::Stl] {
             assert!(matches!(load(b"", Some(f)), Err(Error::Malformed { .. })));
         }
+    }
+
+    #[test]
+    fn content_that_is_not_gltf_is_named_when_gltf_is_asked_for() {
+        // What a text file or an archive saved as .glb reaches the loader as.
+        let e = load(b"hello world", Some(Format::Gltf)).unwrap_err();
+        assert!(
+            e.to_string()
+                .ends_with("it starts with text \"hello world\""),
+            "{e}"
+        );
+        let e = load(b"PK\x03\x04rest", Some(Format::Gltf)).unwrap_err();
+        assert!(e.to_string().contains("bytes 50 4b 03 04"), "{e}");
+        // A terminal escape is shown as bytes, never written raw.
+        let e = load(b"\x1b[2Jcleared", None).unwrap_err();
+        assert!(!e.to_string().contains('\x1b'), "{e}");
+        // JSON that is not glTF still reaches the JSON reader.
+        let e = load(b"  {\"not\": 1", Some(Format::Gltf)).unwrap_err();
+        assert!(e.to_string().contains("(document)"), "{e}");
     }
 
     #[test]

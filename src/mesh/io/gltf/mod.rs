@@ -40,6 +40,18 @@ pub(super) fn parse(
     limit: SizeLimit,
 ) -> Result<TriMesh> {
     check_glb_header(bytes)?;
+    // A file named .glb that is neither (a text file, an archive) would
+    // fail in the JSON reader, "expected value at line 1 column 1".
+    if !bytes.starts_with(b"glTF") && !super::trim_start(bytes).starts_with(b"{") {
+        return Err(Error::malformed(
+            Format::Gltf,
+            "start",
+            format!(
+                "the content is neither a binary glTF (starting with 'glTF') nor a JSON glTF (starting with '{{'); it starts with {}",
+                super::describe_start(bytes)
+            ),
+        ));
+    }
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
     validate(&gltf.document)?;
