@@ -117,6 +117,9 @@ export interface Instance {
   whole: boolean | null;
 }
 
+/** A point: three coordinates, as a tuple or a typed array (whose length is checked when called). */
+export type Point3 = readonly [number, number, number] | Float32Array | Float64Array;
+
 /** A row-major 4x4 matrix; the last row is 0, 0, 0, 1. */
 export type Matrix4 = [
   [number, number, number, number],
@@ -219,6 +222,6 @@ export class Template extends Handle {
   /** A separate model. */
   static fromBytes(bytes: MeshBytes, options?: TemplateOptions): Template;
   /** The part of the scene inside a sphere (scene coordinates). */
-  static fromSelection(center: ArrayLike<number>, radius: number): Template;
+  static fromSelection(center: Point3, radius: number): Template;
   readonly isSelection: boolean;
 }

@@ -26,6 +26,23 @@ export function threadsSupported() {
   return isolated && shared && inWorker && cores > 1;
 }
 
+/** What of the threaded build's needs this context lacks, in a user's words. */
+function whyNoThreads() {
+  if (isNode) {
+    return 'it runs its threads in Web Workers, which Node lacks; in Node use the plain build, which runs on one thread';
+  }
+  const missing = [];
+  if (globalThis.crossOriginIsolated !== true) {
+    missing.push('the page is not cross-origin isolated (serve it with COOP: same-origin and COEP: require-corp)');
+  }
+  if (typeof SharedArrayBuffer !== 'function') missing.push('SharedArrayBuffer is unavailable');
+  if (!(typeof WorkerGlobalScope !== 'undefined' && globalThis instanceof WorkerGlobalScope)) {
+    missing.push('it is not called inside a Web Worker (the pool blocks its caller; use fast-reject/worker)');
+  }
+  if ((globalThis.navigator?.hardwareConcurrency ?? 1) <= 1) missing.push('the browser reports one core');
+  return missing.join('; ');
+}
+
 /**
  * Loads a build once; later calls return the same info. Options: `build`
  * ('auto' by default, 'plain' or 'threads') and `threads` (pool size,
@@ -50,9 +67,7 @@ async function instantiate({ build = 'auto', threads } = {}) {
   }
   const threaded = build === 'threads' || (build === 'auto' && threadsSupported());
   if (threaded && !threadsSupported()) {
-    throw new Error(
-      'fast-reject: the threaded build needs a cross-origin isolated page (COOP/COEP headers), a Web Worker and SharedArrayBuffer',
-    );
+    throw new Error(`fast-reject: the threaded build cannot run here: ${whyNoThreads()}`);
   }
   const glue = threaded ? await import('./threads/fast_reject.js') : await import('./plain/fast_reject.js');
   const wasmUrl = threaded

@@ -7,6 +7,7 @@ import type {
   MeshBytes,
   MeshFormat,
   OptionDefaults,
+  Point3,
   ProgressCallback,
   SceneOptions,
 } from './index.js';
@@ -40,7 +41,7 @@ export interface SceneInfo {
 /** A template for `SearchWorker.match`: a model file, or the part of the scene inside a sphere. */
 export type TemplateSource =
   | { bytes: MeshBytes; format?: MeshFormat; center?: never }
-  | { center: ArrayLike<number>; radius: number; bytes?: never };
+  | { center: Point3; radius: number; bytes?: never };
 
 export interface MatchControl {
   /** After every cascade layer; return `false` (or throw) to cancel. */

@@ -82,6 +82,8 @@ export async function inWorker(sceneBytes: ArrayBuffer, signal: AbortSignal): Pr
     new SearchWorker({ backend: 'webgpu' });
     // @ts-expect-error: a template is a file or a sphere, not both
     void search.match({ bytes: sceneBytes, center: [0, 0, 0], radius: 1 });
+    // @ts-expect-error: a centre has three coordinates
+    void search.match({ center: [0, 0], radius: 1 });
   }
 }
 
@@ -114,6 +116,9 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   const unknown: SceneOptions = { resolutoin: 64 };
   void misspelt;
   void unknown;
+  // @ts-expect-error: a centre has three coordinates
+  Template.fromSelection([0, 0], 1);
+  Template.fromSelection(new Float64Array(3), 1);
   // @ts-expect-error: handles come from the factories only
   new Scene();
   return report;
