@@ -419,7 +419,10 @@ function searchOptions() {
     curvatureThreshold: 'curvature-threshold',
     curvatureSpacing: 'curvature-spacing',
   };
+  // Only the boxes of the stages that run: the export lists what applied.
+  const stages = options.descriptor.split('+');
   for (const [key, id] of Object.entries(thresholds)) {
+    if (!stages.includes($(id).dataset.for)) continue;
     const value = Number($(id).value);
     if ($(id).value !== '' && Number.isFinite(value)) options[key] = value;
   }
@@ -487,7 +490,7 @@ async function runSearch() {
     const onLayer = (stats) => {
       if (generation !== state.generation) return;
       layers.push(stats);
-      appendLayerRow(stats);
+      addLayerRow(stats);
       if (firstSeen.size > 0) return;
       $('progress-bar').value = Math.min(layers.length / expectedLayers, 1);
       showStep(
@@ -594,20 +597,31 @@ function clearResults() {
   $('total-time').textContent = '';
 }
 
-function appendLayerRow(stats) {
-  const row = document.createElement('tr');
-  for (const text of [
-    `${stats.descriptor} ${stats.layer}`,
-    formatLength(stats.radius),
-    stats.candidates.toLocaleString(),
-    stats.survivors.toLocaleString(),
-    stats.ms.toFixed(1),
-  ]) {
-    const cell = document.createElement('td');
-    cell.textContent = text;
-    row.append(cell);
+/**
+ * Adds a layer's figures to the table: one row per layer, summed over the
+ * parts and windows that ran it, as a scene of many parts runs each layer
+ * hundreds of times.
+ */
+function addLayerRow(stats) {
+  const body = $('layer-table').tBodies[0];
+  const key = `${stats.descriptor} ${stats.layer}`;
+  let row = [...body.rows].find((r) => r.dataset.key === key);
+  if (!row) {
+    row = document.createElement('tr');
+    row.dataset.key = key;
+    row.dataset.candidates = '0';
+    row.dataset.survivors = '0';
+    row.dataset.ms = '0';
+    for (let i = 0; i < 5; i++) row.append(document.createElement('td'));
+    row.cells[0].textContent = key;
+    row.cells[1].textContent = formatLength(stats.radius);
+    body.append(row);
   }
-  $('layer-table').tBodies[0].append(row);
+  for (const [field, cell] of [['candidates', 2], ['survivors', 3], ['ms', 4]]) {
+    const sum = Number(row.dataset[field]) + stats[field];
+    row.dataset[field] = String(sum);
+    row.cells[cell].textContent = field === 'ms' ? sum.toFixed(1) : sum.toLocaleString();
+  }
 }
 
 function showResults(report, wallMs) {
@@ -624,8 +638,11 @@ function showResults(report, wallMs) {
     `${report.threads} thread${report.threads === 1 ? '' : 's'}` +
     (report.gpu ? `, layers on the GPU (${report.gpu.adapter})` : ', CPU only') +
     (report.gpu?.fallback ? `; some went back to the CPU: ${report.gpu.fallback}` : '');
+  // Beside the layer table it explains, not in the default view.
   const order = layerOrderNote(report.stages);
-  if (order) $('total-time').textContent += `. ${order}`;
+  $('layer-order').textContent = order;
+  $('layer-order').hidden = !order;
+  showResolutionUsed(report.grid);
   state.names = report.instances.map((instance) => view.nameAt(instance.position));
   const poses = report.instances.map((instance) => instance.pose).filter(Boolean);
   view.setGhosts(templateKind() === 'model' ? poses : []);
@@ -656,13 +673,26 @@ function showResults(report, wallMs) {
     row.cells[1].textContent = `${ms.toFixed(1)} ms`;
     timings.append(row);
   }
-  // The table was filled live; a cascade that ended early is complete too.
-  if ($('layer-table').tBodies[0].rows.length !== report.stages.length) {
-    $('layer-table').tBodies[0].replaceChildren();
-    report.stages.forEach(appendLayerRow);
-  }
+  // The table was filled live; filled again from the report, it holds
+  // every layer of a cascade that ended early too.
+  $('layer-table').tBodies[0].replaceChildren();
+  report.stages.forEach(addLayerRow);
   // The list sits below the search settings: bring it into view.
   $('results').scrollIntoView({ block: 'nearest', behavior: 'smooth' });
+}
+
+/**
+ * The grid a search used, under the Resolution box when it differs from
+ * the box: the search refines the grid for a small template and coarsens
+ * it for a large one, and the box alone would say 512 for a grid of 1592.
+ */
+function showResolutionUsed(grid) {
+  const note = $('resolution-used');
+  const asked = Number($('resolution').value);
+  note.hidden = !grid || grid.resolution === asked;
+  if (note.hidden) return;
+  const why = grid.resolution > asked ? 'finer, for this small template' : 'coarser, for this large template';
+  note.textContent = `This search used ${grid.resolution} (${why}).`;
 }
 
 /** A share in 0..1 as a percentage that tells 99.6% from 100%. */
@@ -682,7 +712,7 @@ function layerOrderNote(stages) {
   const shuffled = [...seen].filter(([, layers]) => layers.some((layer, i) => i > 0 && layer < layers[i - 1]));
   if (shuffled.length === 0) return '';
   const names = shuffled.map(([name, layers]) => `${name} (${layers.join(', ')})`).join(' and ');
-  return `Layers ran in the order ${names}: all cost the same, so the one that rejects the most candidates goes first; the result does not depend on it`;
+  return `Layers ran in the order ${names}: all cost the same, so the one that rejects the most candidates goes first; the result does not depend on it.`;
 }
 
 /** The report as a file: what was searched, with what, and each match's name. */
@@ -700,7 +730,8 @@ function exportReport() {
       ...plain.template,
       ...(template?.kind === 'selection' ? { selection: { center: template.center, radius: template.radius } } : { file: template?.name ?? null }),
     },
-    options: state.lastOptions,
+    // The curvature search reads the mesh, not the grid.
+    options: state.lastOptions?.descriptor === 'curvature' ? { ...state.lastOptions, resolution: undefined } : state.lastOptions,
     instances: plain.instances.map((instance, i) => ({ name: state.names?.[i] ?? null, ...instance })),
   };
   const blob = new Blob([JSON.stringify(document_, null, 2)], { type: 'application/json' });

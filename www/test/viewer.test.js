@@ -106,6 +106,17 @@ for (const isolation of [true, false]) {
       assert.match(await page.locator('#webgpu-badge').textContent(), /WebGPU: (software only|not available)/);
       assert.match(await page.locator('#total-time').textContent(), /CPU only/);
       assert.equal(await page.evaluate(() => globalThis.viewer.report.gpu), null);
+      // The grid the search used is shown where it is not the box's, and
+      // the layer order's note stays out of the default view.
+      const used = await page.evaluate(() => ({
+        grid: globalThis.viewer.report.grid.resolution,
+        asked: Number(document.getElementById('resolution').value),
+        hidden: document.getElementById('resolution-used').hidden,
+        text: document.getElementById('resolution-used').textContent,
+      }));
+      assert.equal(used.hidden, used.grid === used.asked, JSON.stringify(used));
+      if (!used.hidden) assert.match(used.text, new RegExp(`used ${used.grid} \\(`));
+      assert.doesNotMatch(await page.locator('#total-time').textContent(), /Layers ran/);
 
       // The demo lies on the xy plane: the view orbits around z.
       assert.equal(await page.evaluate(() => globalThis.viewer.up), 'z');
@@ -114,7 +125,15 @@ for (const isolation of [true, false]) {
       assertMatchesTruth(demo, demoTruth, 'demo');
       assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), demoTruth.instances.length);
       assert.equal(await page.locator('#instance-list li').count(), demoTruth.instances.length);
-      assert.equal(await page.locator('#layer-table tbody tr').count(), demo.stages.length);
+      // One row per layer, summed over the demo's parts.
+      const layerKeys = new Set(demo.stages.map((s) => `${s.descriptor} ${s.layer}`));
+      assert.equal(await page.locator('#layer-table tbody tr').count(), layerKeys.size);
+      const first = demo.stages[0];
+      const summed = demo.stages
+        .filter((s) => s.descriptor === first.descriptor && s.layer === first.layer)
+        .reduce((sum, s) => sum + s.candidates, 0);
+      const shown = await page.locator('#layer-table tbody tr').first().locator('td').nth(2).textContent();
+      assert.equal(Number(shown.replace(/\D/g, '')), summed, shown);
 
       // A threshold change re-runs the search: nothing is that close, then the three again.
       await page.fill('#harmonics-threshold', '0.01');
@@ -569,6 +588,9 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     assert.equal(exported.template.file, 'bunny.glb');
     assert.deepEqual(exported.template.center, report.template.center);
     assert.equal(exported.options.descriptor, 'volume+harmonics');
+    // Only the options that applied: no curvature box in a voxel search.
+    assert.ok('volumeThreshold' in exported.options && 'harmonicsThreshold' in exported.options, JSON.stringify(exported.options));
+    assert.ok(!('curvatureThreshold' in exported.options) && !('curvatureSpacing' in exported.options), JSON.stringify(exported.options));
     assert.deepEqual(exported.instances.map((i) => i.name), names);
     assert.deepEqual(exported.instances.map((i) => i.position), report.instances.map((i) => i.position));
     assert.equal(exported.instances[0].pose.length, 4);
