@@ -17,16 +17,14 @@ const isNode = typeof process !== 'undefined' && !!process.versions?.node;
 
 /** Whether this context can run the threaded build. */
 export function threadsSupported() {
-  if (isNode) return false; // wasm-bindgen-rayon spawns Web Workers, which Node lacks
-  const isolated = globalThis.crossOriginIsolated === true;
-  const shared = typeof SharedArrayBuffer === 'function';
-  // The pool blocks its caller while it works: only a worker may block.
-  const inWorker = typeof WorkerGlobalScope !== 'undefined' && globalThis instanceof WorkerGlobalScope;
-  const cores = globalThis.navigator?.hardwareConcurrency ?? 1;
-  return isolated && shared && inWorker && cores > 1;
+  return whyNoThreads() === '';
 }
 
-/** What of the threaded build's needs this context lacks, in a user's words. */
+/**
+ * What of the threaded build's needs this context lacks, in a user's words
+ * ('' when it has them all): the one list both `threadsSupported` and the
+ * refusal read.
+ */
 function whyNoThreads() {
   if (isNode) {
     return 'it runs its threads in Web Workers, which Node lacks; in Node use the plain build, which runs on one thread';
@@ -36,6 +34,7 @@ function whyNoThreads() {
     missing.push('the page is not cross-origin isolated (serve it with COOP: same-origin and COEP: require-corp)');
   }
   if (typeof SharedArrayBuffer !== 'function') missing.push('SharedArrayBuffer is unavailable');
+  // The pool blocks its caller while it works: only a worker may block.
   if (!(typeof WorkerGlobalScope !== 'undefined' && globalThis instanceof WorkerGlobalScope)) {
     missing.push('it is not called inside a Web Worker (the pool blocks its caller; use fast-reject/worker)');
   }
