@@ -241,20 +241,27 @@ viewport.addEventListener('drop', async (event) => {
   else await openScene(files);
 });
 
-// ---- view tools: fit, x-ray, keys ---------------------------------------------
+// ---- view tools: fit, x-ray, isolate, cut-away, markers, keys ------------------
 
 $('fit-button').addEventListener('click', () => view.frame());
-$('xray').addEventListener('change', () => {
-  view.xray = $('xray').checked;
-});
+/** The check boxes that switch a view mode, with the key that toggles each. */
+const VIEW_MODES = [
+  { box: 'xray', key: 'x', set: (on) => (view.xray = on) },
+  { box: 'isolate', key: 'i', set: (on) => (view.isolate = on) },
+  { box: 'cutaway', key: 'c', set: (on) => (view.cutaway = on) },
+  { box: 'markers', key: 'm', set: (on) => (view.markersVisible = on) },
+];
+for (const mode of VIEW_MODES) $(mode.box).addEventListener('change', () => mode.set($(mode.box).checked));
+const modeForKey = (key) => VIEW_MODES.find((mode) => mode.key === key.toLowerCase());
 window.addEventListener('keydown', (event) => {
   // Keys typed into a field are the field's.
   if (event.target.closest?.('input, select, textarea') || event.ctrlKey || event.metaKey || event.altKey) return;
   if (event.key === 'f' || event.key === 'F' || event.key === 'Home') {
     view.frame();
-  } else if (event.key === 'x' || event.key === 'X') {
-    $('xray').checked = !$('xray').checked;
-    view.xray = $('xray').checked;
+  } else if (modeForKey(event.key)) {
+    const mode = modeForKey(event.key);
+    $(mode.box).checked = !$(mode.box).checked;
+    mode.set($(mode.box).checked);
   } else if (event.key === 'Escape' && state.running) {
     cancelSearch();
   } else {
@@ -589,6 +596,7 @@ function clearResults() {
   $('export-button').disabled = true;
   view.setGhosts([]);
   view.setMatches(new Float64Array(), 0);
+  view.setMatchPoses([]);
   $('progress-bar').value = 0;
   $('instance-list').replaceChildren();
   $('layer-table').tBodies[0].replaceChildren();
@@ -646,6 +654,7 @@ function showResults(report, wallMs) {
   state.names = report.instances.map((instance) => view.nameAt(instance.position));
   const poses = report.instances.map((instance) => instance.pose).filter(Boolean);
   view.setGhosts(templateKind() === 'model' ? poses : []);
+  view.setMatchPoses(templateKind() === 'model' ? report.instances.map((instance) => instance.pose ?? null) : []);
   $('results-legend').hidden = count === 0;
   $('export-button').disabled = false;
   const list = $('instance-list');
@@ -829,6 +838,14 @@ globalThis.viewer = {
   get xray() {
     return view.xray;
   },
+  get isolate() {
+    return view.isolate;
+  },
+  get cutaway() {
+    return view.cutaway;
+  },
+  /** The colours drawn at scene points, [r, g, b] each, without ghosts, markers or the sphere. */
+  coloursAt: (points) => view.coloursAt(points),
   /** The camera's distance to the point it orbits (tests check fit and focus with it). */
   get cameraDistance() {
     return view.distanceToTarget();

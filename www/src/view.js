@@ -1,7 +1,9 @@
 // The 3D view: three.js rendering of the scene in one clay material whose
 // shader colours the surface inside each match's ball (the matched region,
 // not a marker), the template placed at each match's pose (a ghost), the
-// selection sphere, picking, names, framing, flights and an x-ray mode.
+// selection sphere, picking, names, framing, flights, and the ways to see
+// matches inside an assembly: x-ray, isolate, a cut-away in front of the
+// point orbited, and screen markers that keep the smallest match in sight.
 // It renders on demand, not every frame.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -20,6 +22,16 @@ const GHOST = 0x4fd1ff;
 /** Opacity of the scene's surface outside the matches in x-ray mode. */
 const XRAY_OPACITY = 0.18;
 const FOCUS = new THREE.Color(0xffe14d);
+/** Screen markers: this many pixels across, whatever the distance. */
+const MARKER_PIXELS = 14;
+/** The cut-away clears this much more than the match's ball in front of the point orbited. */
+const CUT_MARGIN = 1.15;
+/**
+ * A posed match covers the template's box at its pose, grown by this share
+ * of the template's radius: a copy's surface lies a little off the box
+ * where the pose or the meshing is off by a little.
+ */
+const BOX_MARGIN = 0.03;
 
 /** Parses mesh bytes into a three.js object in file coordinates (as the package reads them). */
 export async function parseModel({ name, format, bytes }) {
@@ -84,7 +96,19 @@ export class View {
   #parts = [];
   /** The template's meshes in its own coordinates, for the ghosts. */
   #template = null;
+  /** The template's box in its own coordinates, for posed matches. */
+  #templateBox = null;
   #ghosts = new THREE.Group();
+  /** Each match's centre and the radius of its ball, as last set. */
+  #matchPoints = new Float64Array();
+  #matchRadius = 0;
+  /** Each match's scene-to-template matrix where it has a pose (and the view a template), else null. */
+  #matchInverses = [];
+  #isolate = false;
+  #cutaway = false;
+  /** Clips what lies in front of the point orbited (the cut-away). */
+  #cut = new THREE.Plane();
+  #markers;
 
   /**
    * `onPick(point)` gets the surface point under a click (not a drag, not
@@ -93,6 +117,7 @@ export class View {
    */
   constructor(container, { onPick = () => {}, onFocus = () => {}, onWheelRadius = () => {} } = {}) {
     const renderer = new THREE.WebGLRenderer({ antialias: true });
+    renderer.localClippingEnabled = true;
     renderer.setPixelRatio(Math.min(globalThis.devicePixelRatio ?? 1, 2));
     renderer.toneMapping = THREE.NeutralToneMapping;
     container.append(renderer.domElement);
@@ -113,7 +138,9 @@ export class View {
     this.#makeControls();
 
     this.#highlights = highlightTexture();
-    this.#material = clayMaterial(this.#highlights);
+    this.#material = clayMaterial(this.#highlights, poseTexture());
+    this.#markers = screenMarkers();
+    this.#scene.add(this.#markers);
     this.#selection = selectionSphere();
     this.#selection.visible = false;
     this.#scene.add(this.#selection);
@@ -207,6 +234,7 @@ export class View {
     this.#parts = namedParts(object);
     this.setGhosts([]);
     this.setMatches(new Float64Array(), 0);
+    this.setMatchPoses([]);
     this.setSelection(null);
     this.#up = up;
     this.#makeControls();
@@ -258,8 +286,154 @@ export class View {
     const uniforms = this.#material.userData.uniforms;
     uniforms.matchCount.value = count;
     uniforms.focusIndex.value = focus;
+    this.#matchPoints = Float64Array.from(positions.subarray?.(0, 3 * count) ?? positions.slice(0, 3 * count));
+    this.#matchRadius = radius;
+    placeMarkers(this.#markers, this.#matchPoints, focus);
     this.requestRender();
     return count;
+  }
+
+  /**
+   * Each match's pose (row-major 4x4, template to scene) or null, in the
+   * order of the matches: with the template model set, a posed match
+   * covers the template's box at its pose within its ball, so the colour,
+   * isolate and picks take the copy's own surface and not a neighbour's
+   * that enters the ball. Without a pose, the whole ball counts.
+   */
+  setMatchPoses(poses) {
+    const texture = this.#material.userData.uniforms.matchPoses.value;
+    const data = texture.image.data;
+    data.fill(0);
+    const inverse = new THREE.Matrix4();
+    this.#matchInverses = [];
+    const box = this.#templateBox;
+    poses.slice(0, MAX_HIGHLIGHTS).forEach((rows, i) => {
+      if (!rows || !box) {
+        this.#matchInverses.push(null);
+        return;
+      }
+      inverse.set(...rows.flat()).invert();
+      const e = inverse.elements; // column-major
+      for (let r = 0; r < 3; r += 1) data.set([e[r], e[4 + r], e[8 + r], e[12 + r]], 4 * (r * MAX_HIGHLIGHTS + i));
+      data[4 * (3 * MAX_HIGHLIGHTS + i)] = 1;
+      this.#matchInverses.push(inverse.clone());
+    });
+    texture.needsUpdate = true;
+    const uniforms = this.#material.userData.uniforms;
+    if (box) {
+      const margin = BOX_MARGIN * box.getBoundingSphere(new THREE.Sphere()).radius;
+      uniforms.boxMin.value.copy(box.min).subScalar(margin);
+      uniforms.boxMax.value.copy(box.max).addScalar(margin);
+    }
+    this.#applyIsolate();
+    this.requestRender();
+  }
+
+  /** Whether scene point `p` (a Vector3) lies in a match as the shader colours it. */
+  #inMatch(p) {
+    const r2 = this.#matchRadius * this.#matchRadius;
+    const local = new THREE.Vector3();
+    const uniforms = this.#material.userData.uniforms;
+    const count = uniforms.matchCount.value;
+    for (let i = 0; i < count; i += 1) {
+      const c = this.#matchPoints;
+      const dx = p.x - c[3 * i];
+      const dy = p.y - c[3 * i + 1];
+      const dz = p.z - c[3 * i + 2];
+      if (dx * dx + dy * dy + dz * dz > r2) continue;
+      const inverse = this.#matchInverses[i];
+      if (!inverse) return true;
+      local.copy(p).applyMatrix4(inverse);
+      if (local.clone().max(uniforms.boxMin.value).min(uniforms.boxMax.value).distanceToSquared(local) === 0) return true;
+    }
+    return false;
+  }
+
+  /**
+   * Isolate: only the matches are drawn. Meshes that hold no match are
+   * hidden, and on the rest only the fragments in a match are kept, so
+   * that a match inside an assembly drawn as one mesh shows too.
+   */
+  set isolate(on) {
+    this.#isolate = on;
+    this.#applyIsolate();
+  }
+
+  get isolate() {
+    return this.#isolate;
+  }
+
+  #applyIsolate() {
+    const on = this.#isolate && this.#material.userData.uniforms.matchCount.value > 0;
+    this.#material.userData.uniforms.isolateMatches.value = on ? 1 : 0;
+    const p = new THREE.Vector3();
+    const c = this.#matchPoints;
+    for (const part of this.#parts) {
+      let holds = !on;
+      for (let i = 0; !holds && i < c.length / 3; i += 1) {
+        p.set(c[3 * i], c[3 * i + 1], c[3 * i + 2]);
+        holds = part.box.distanceToPoint(p) <= this.#matchRadius;
+      }
+      part.node.visible = holds;
+    }
+    this.requestRender();
+  }
+
+  /** Cut-away: what lies in front of the point orbited, nearer the camera than a match's ball, is not drawn. */
+  set cutaway(on) {
+    this.#cutaway = on;
+    this.#material.clippingPlanes = on ? [this.#cut] : null;
+    this.#material.needsUpdate = true;
+    this.requestRender();
+  }
+
+  get cutaway() {
+    return this.#cutaway;
+  }
+
+  /** The cut-away's plane, facing away from the camera, a ball's radius in front of the point orbited. */
+  #placeCut() {
+    const target = this.#controls.target;
+    const normal = target.clone().sub(this.#camera.position).normalize();
+    const clear = (this.#matchRadius > 0 ? this.#matchRadius : 0.05 * this.#sceneRadius) * CUT_MARGIN;
+    this.#cut.setFromNormalAndCoplanarPoint(normal, target.clone().addScaledVector(normal, -clear));
+  }
+
+  /** Whether the screen markers are drawn. */
+  set markersVisible(visible) {
+    this.#markers.visible = visible;
+    this.requestRender();
+  }
+
+  get markersVisible() {
+    return this.#markers.visible;
+  }
+
+  /**
+   * The colours drawn at scene points' pixels, as [r, g, b] (0-255) each,
+   * from one frame without the ghosts, markers and selection sphere: tests
+   * read whether a match can be seen from here.
+   */
+  coloursAt(points) {
+    const hidden = [this.#ghosts, this.#markers, this.#selection].filter((o) => o.visible);
+    for (const o of hidden) o.visible = false;
+    this.#camera.updateMatrixWorld();
+    if (this.#cutaway) this.#placeCut();
+    this.#renderer.render(this.#scene, this.#camera);
+    for (const o of hidden) o.visible = true;
+    const canvas = this.#renderer.domElement;
+    const rect = canvas.getBoundingClientRect();
+    const gl = this.#renderer.getContext();
+    const colours = points.map((point) => {
+      const { x, y } = this.project(point);
+      const px = Math.round(((x - rect.left) / rect.width) * canvas.width);
+      const py = canvas.height - 1 - Math.round(((y - rect.top) / rect.height) * canvas.height);
+      const out = new Uint8Array(4);
+      gl.readPixels(px, py, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, out);
+      return [out[0], out[1], out[2]];
+    });
+    this.requestRender();
+    return colours;
   }
 
   /** How many matches are coloured now. */
@@ -286,7 +460,15 @@ export class View {
     const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
     const raycaster = new THREE.Raycaster();
     raycaster.setFromCamera(ndc, this.#camera);
-    const hit = raycaster.intersectObject(this.#root, true).find((h) => h.object.visible);
+    if (this.#cutaway) this.#placeCut();
+    // What is drawn: visible, not cut away, and in a match when isolated.
+    // Through x-ray the first match on the ray wins over the faint surface
+    // in front of it.
+    const hits = raycaster
+      .intersectObject(this.#root, true)
+      .filter((h) => h.object.visible && (!this.#cutaway || this.#cut.distanceToPoint(h.point) >= 0));
+    const matchHit = this.#isolate || this.xray ? hits.find((h) => this.#inMatch(h.point)) : undefined;
+    const hit = this.#isolate ? matchHit : (matchHit ?? hits[0]);
     return hit ? hit.point.toArray() : null;
   }
 
@@ -310,6 +492,7 @@ export class View {
     this.setGhosts([]);
     if (!object) {
       this.#template = null;
+      this.#templateBox = null;
       return;
     }
     object.updateMatrixWorld(true);
@@ -318,6 +501,7 @@ export class View {
       if (node.isMesh && node.geometry?.attributes?.position) meshes.push({ geometry: node.geometry, matrix: node.matrixWorld.clone() });
     });
     this.#template = meshes;
+    this.#templateBox = new THREE.Box3().setFromObject(object);
   }
 
   /** Draws the template at every pose (row-major 4x4, template to scene), as a translucent ghost. */
@@ -425,6 +609,7 @@ export class View {
     }
     // With damping, update() reports motion until the orbit settles.
     if (this.#controls.update()) moving = true;
+    if (this.#cutaway) this.#placeCut();
     this.#renderer.render(this.#scene, this.#camera);
     if (moving || this.#flight) this.requestRender();
   }
@@ -481,7 +666,7 @@ function namedParts(root) {
     for (let at = node; at && at !== root && !name; at = at.parent) name = at.name || null;
     const box = new THREE.Box3().setFromObject(node);
     const size = box.getSize(new THREE.Vector3());
-    parts.push({ name, box, volume: Math.max(size.x, 1e-12) * Math.max(size.y, 1e-12) * Math.max(size.z, 1e-12) });
+    parts.push({ node, name, box, volume: Math.max(size.x, 1e-12) * Math.max(size.y, 1e-12) * Math.max(size.z, 1e-12) });
   });
   return parts;
 }
@@ -494,12 +679,66 @@ function highlightTexture() {
   return texture;
 }
 
-/** A matte material whose fragments inside any match ball take the match colour. */
-function clayMaterial(highlights) {
+/** Four rows of MAX_HIGHLIGHTS texels: a match's scene-to-template rows, then whether it is posed. */
+function poseTexture() {
+  const texture = new THREE.DataTexture(new Float32Array(4 * 4 * MAX_HIGHLIGHTS), MAX_HIGHLIGHTS, 4, THREE.RGBAFormat, THREE.FloatType);
+  texture.magFilter = THREE.NearestFilter;
+  texture.minFilter = THREE.NearestFilter;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/** A ring the same size on screen at any distance, drawn over everything, one per match. */
+function screenMarkers() {
+  const canvas = document.createElement('canvas');
+  canvas.width = canvas.height = 64;
+  const context = canvas.getContext('2d');
+  context.strokeStyle = '#ffffff';
+  context.lineWidth = 9;
+  context.beginPath();
+  context.arc(32, 32, 26, 0, Math.PI * 2);
+  context.stroke();
+  const material = new THREE.PointsMaterial({
+    size: MARKER_PIXELS,
+    sizeAttenuation: false,
+    map: new THREE.CanvasTexture(canvas),
+    vertexColors: true,
+    transparent: true,
+    alphaTest: 0.3,
+    depthTest: false,
+    depthWrite: false,
+  });
+  const markers = new THREE.Points(new THREE.BufferGeometry(), material);
+  markers.renderOrder = 10;
+  markers.frustumCulled = false;
+  markers.raycast = () => {};
+  return markers;
+}
+
+/** Puts a marker at every match centre, the focused one in the focus colour. */
+function placeMarkers(markers, points, focus) {
+  const colours = new Float32Array(points.length);
+  for (let i = 0; i < points.length / 3; i += 1) (i === focus ? FOCUS : MATCH).toArray(colours, 3 * i);
+  markers.geometry.dispose();
+  markers.geometry = new THREE.BufferGeometry();
+  markers.geometry.setAttribute('position', new THREE.Float32BufferAttribute(points, 3));
+  markers.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
+}
+
+/**
+ * A matte material whose fragments inside any match take the match
+ * colour: inside its ball and, for a posed match, inside the template's
+ * box at its pose. Isolate drops every other fragment.
+ */
+function clayMaterial(highlights, poses) {
   const material = new THREE.MeshStandardMaterial({ color: CLAY, roughness: 0.62, metalness: 0, side: THREE.DoubleSide });
   const uniforms = {
     matchBalls: { value: highlights },
     matchCount: { value: 0 },
+    matchPoses: { value: poses },
+    boxMin: { value: new THREE.Vector3() },
+    boxMax: { value: new THREE.Vector3() },
+    isolateMatches: { value: 0 },
     focusIndex: { value: -1 },
     surfaceOpacity: { value: 1 },
     matchColor: { value: MATCH },
@@ -525,6 +764,10 @@ function clayMaterial(highlights) {
         `#include <common>
         varying vec3 vMatchWorld;
         uniform sampler2D matchBalls;
+        uniform sampler2D matchPoses;
+        uniform vec3 boxMin;
+        uniform vec3 boxMax;
+        uniform int isolateMatches;
         uniform int matchCount;
         uniform int focusIndex;
         uniform vec3 matchColor;
@@ -542,6 +785,15 @@ function clayMaterial(highlights) {
           vec4 ball = texelFetch(matchBalls, ivec2(i, 0), 0);
           float d = distance(vMatchWorld, ball.xyz);
           float inside = 1.0 - smoothstep(ball.w * 0.96, ball.w, d);
+          if (inside > 0.0 && texelFetch(matchPoses, ivec2(i, 3), 0).x > 0.5) {
+            vec4 world = vec4(vMatchWorld, 1.0);
+            vec3 local = vec3(
+              dot(texelFetch(matchPoses, ivec2(i, 0), 0), world),
+              dot(texelFetch(matchPoses, ivec2(i, 1), 0), world),
+              dot(texelFetch(matchPoses, ivec2(i, 2), 0), world));
+            vec3 beyond = max(boxMin - local, local - boxMax);
+            if (max(max(beyond.x, beyond.y), beyond.z) > 0.0) inside = 0.0;
+          }
           rim = max(rim, inside * smoothstep(ball.w * 0.9, ball.w * 0.96, d));
           matchWeight = max(matchWeight, inside);
           if (i == focusIndex) focusWeight = inside;
@@ -549,6 +801,7 @@ function clayMaterial(highlights) {
         vec3 tint = mix(matchColor, focusColor, focusWeight);
         diffuseColor.rgb = mix(diffuseColor.rgb, tint, 0.78 * matchWeight);
         diffuseColor.rgb *= 1.0 - 0.45 * rim;
+        if (isolateMatches == 1 && matchWeight <= 0.0) discard;
         diffuseColor.a *= mix(surfaceOpacity, 1.0, matchWeight);`,
       );
   };

@@ -625,3 +625,100 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     await viewer.close();
   }
 });
+
+/** The colour a match is drawn in (orange, or yellow when focused), told from the clay and the background. */
+const isMatchColour = ([r, , b]) => r > 120 && r - b > 60;
+
+/** Scene point `p` in the coordinates of the template placed by the row-major 4x4 `pose`. */
+function intoTemplate(pose, p) {
+  const d = [0, 1, 2].map((r) => p[r] - pose[r][3]);
+  return [0, 1, 2].map((c) => pose[0][c] * d[0] + pose[1][c] * d[1] + pose[2][c] * d[2]);
+}
+
+/** The box of a .glb's first POSITION accessor (its min and max, as glTF requires them). */
+function glbBox(glb) {
+  const json = JSON.parse(glb.subarray(20, 20 + glb.readUInt32LE(12)).toString('utf8'));
+  const accessor = json.accessors[json.meshes[0].primitives[0].attributes.POSITION];
+  return { min: accessor.min, max: accessor.max };
+}
+
+test('viewer: matches inside an assembly — isolate shows every one, a click through x-ray lands on one, the cut-away clears the way to one flown to', async () => {
+  const saw = resolve(shared, 'scenes/real-saw-roller');
+  const viewer = await openViewer({ isolation: true });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    await page.setInputFiles('#scene-input', resolve(saw, 'scene.glb'));
+    await waitForStatus(page, 'ready');
+    const templateGlb = await readFile(resolve(saw, 'template.glb'));
+    await page.setInputFiles('#template-input', { name: 'roller.glb', mimeType: 'model/gltf-binary', buffer: templateGlb });
+    await waitForStatus(page, 'done');
+    const report = await page.evaluate(() => globalThis.viewer.report);
+    const sawTruth = await truth(saw);
+    assertMatchesTruth(report, sawTruth, 'real-saw-roller');
+    const centres = report.instances.map((i) => i.position);
+    const seen = async () => {
+      const colours = await page.evaluate((points) => globalThis.viewer.coloursAt(points), centres);
+      return colours.filter(isMatchColour).length;
+    };
+    // The rollers sit inside the housing: from outside, few show.
+    const outside = await seen();
+    assert.ok(outside < centres.length / 2, `${outside} of ${centres.length} rollers show through the housing`);
+    await page.keyboard.press('i');
+    assert.equal(await page.evaluate(() => globalThis.viewer.isolate), true);
+    assert.equal(await seen(), centres.length, 'isolate shows every match');
+    await mkdir(screenshots, { recursive: true });
+    await page.screenshot({ path: resolve(screenshots, 'viewer-isolate-rollers.png') });
+    await page.keyboard.press('i');
+
+    // A click on a roller's centre: on the housing in front of it, but
+    // through x-ray on a roller (its point falls in the template's box at
+    // a roller's pose; another roller may stand in front).
+    const box = glbBox(templateGlb);
+    const slack = 0.02 * sawTruth.template_radius;
+    const onRoller = (pose, p) => intoTemplate(pose, p).every((v, a) => v >= box.min[a] - slack && v <= box.max[a] + slack);
+    await page.click('label:has(input[value="selection"])');
+    const landings = async () => {
+      let on = 0;
+      let last = { x: -100, y: -100 };
+      for (const k of centres.keys()) {
+        const at = await page.evaluate((p) => globalThis.viewer.project(p), centres[k]);
+        // Two quick clicks a few pixels apart are a double-click.
+        if (Math.hypot(at.x - last.x, at.y - last.y) < 10) await page.waitForTimeout(700);
+        last = at;
+        await page.mouse.click(at.x, at.y);
+        const picked = await page.evaluate(() => globalThis.viewer.selection?.center ?? null);
+        if (picked && report.instances.some((other) => onRoller(other.pose, picked))) on += 1;
+      }
+      return on;
+    };
+    const plain = await landings();
+    assert.ok(plain < centres.length / 2, `${plain} clicks land on a roller without x-ray`);
+    await page.keyboard.press('x');
+    // A roller is a few pixels wide from here: a click at its centre's
+    // pixel may pass beside one seen nearly end-on.
+    const through = await landings();
+    assert.ok(through >= centres.length - 2 && through > plain, `${through} clicks land on a roller through x-ray, ${plain} without`);
+    await page.keyboard.press('x');
+    await page.click('label:has(input[value="model"])');
+
+    // Flown to from the list, with the cut-away on: the match is in sight.
+    await page.keyboard.press('c');
+    assert.equal(await page.evaluate(() => globalThis.viewer.cutaway), true);
+    // Frames are slow on software WebGL: two flights.
+    for (const k of [7, 20]) {
+      await page.locator('#instance-list li button').nth(k).click();
+      await page.waitForFunction(
+        (p) => globalThis.viewer.cameraTarget.every((v, i) => Math.abs(v - p[i]) < 1e-9 + 1e-6 * Math.abs(p[i])),
+        centres[k],
+        { timeout: 60_000 },
+      );
+      const [colour] = await page.evaluate((p) => globalThis.viewer.coloursAt([p]), centres[k]);
+      assert.ok(isMatchColour(colour), `match ${k} is hidden after flying to it with the cut-away: ${colour}`);
+    }
+    await page.screenshot({ path: resolve(screenshots, 'viewer-cutaway-roller.png') });
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
