@@ -37,6 +37,12 @@ build_threads() {
   grep -q 'await pkg.default(data.module, data.memory);' $helpers ||
     { echo "build-wasm: wasm-bindgen-rayon's worker start changed; check for the init warning" >&2; exit 1; }
   sed -i 's/await pkg.default(data.module, data.memory);/await pkg.default({ module_or_path: data.module, memory: data.memory });/' $helpers
+  # It starts each pool worker from a blob: copy of its own script (for a
+  # script on a CDN). A dev server that rewrites the script to import its
+  # client from a root path (Vite's does, for the script's import()) makes
+  # that copy fail to load, and the pool waits for it for ever. A script
+  # of the page's own origin is started from its URL instead.
+  node scripts/patch-pool-start.mjs $helpers
 }
 
 mkdir -p pkg

@@ -15,6 +15,20 @@ export class CancelledError extends Error {
   }
 }
 
+/**
+ * The threaded build's pool of workers did not start: they failed to load
+ * or did not answer in time. `build: 'auto'` falls back to the plain build
+ * instead (and `init()`'s `fallback` says why); `build: 'threads'` throws
+ * this. Apart by its class, and by `code === 'thread-pool'`.
+ */
+export class ThreadPoolError extends Error {
+  constructor(message, options) {
+    super(message, options);
+    this.name = 'ThreadPoolError';
+    this.code = 'thread-pool';
+  }
+}
+
 // Control characters (escape sequences start with them) and the invisible
 // ones that reorder or hide text: the set the core escapes in its messages.
 const UNSAFE = /[\u0000-\u001f\u007f-\u009f\u200b-\u200f\u2028-\u202e\u2060-\u2069\ufeff\ufff9-\ufffb]/gu;

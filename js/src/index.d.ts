@@ -6,6 +6,8 @@ export interface BuildInfo {
   threads: number;
   /** Bytes the module's memory may grow to (voxel grids are capped from it). */
   memoryLimitBytes: number;
+  /** Why the plain build runs where `build: 'auto'` chose threads (the pool did not start), else null. */
+  fallback: string | null;
 }
 
 export interface InitOptions {
@@ -159,10 +161,17 @@ export interface GpuChoice {
   allowSoftware?: boolean;
 }
 
+/** The threaded build's workers did not start (`build: 'threads'`; 'auto' falls back to the plain build). */
+export class ThreadPoolError extends Error {
+  readonly name: 'ThreadPoolError';
+  readonly code: 'thread-pool';
+}
+
 /**
  * A search stopped before its end: the progress callback returned `false` or
  * threw (what it threw is the `cause`), or the caller cancelled it.
  */
+
 export class CancelledError extends Error {
   readonly name: 'CancelledError';
   readonly code: 'cancelled';

@@ -6,9 +6,17 @@
 // arguments, and cannot use a handle after `free()`. Both builds can also
 // run the cascade's layers on WebGPU (`Scene.matchGpu`).
 
-import { CancelledError, describe, plainOptions } from './errors.js';
+import { CancelledError, ThreadPoolError, describe, plainOptions } from './errors.js';
 
-export { CancelledError };
+export { CancelledError, ThreadPoolError };
+
+/**
+ * How long the threaded build's pool may take to start: its workers load
+ * in well under a second, and one that failed to load (a dev server that
+ * rewrote its script, a policy that blocks it) never answers, so waiting
+ * longer would only hang the caller.
+ */
+const POOL_START_MS = 8_000;
 
 let loading = null;
 let loaded = null;
@@ -83,9 +91,35 @@ async function instantiate({ build = 'auto', threads } = {}) {
   await glue.default({ module_or_path: source });
   if (threaded) {
     const count = threads ?? globalThis.navigator.hardwareConcurrency;
-    await glue.initThreadPool(count);
+    const problem = await poolProblem(glue.initThreadPool(count), count);
+    if (problem && build === 'threads') throw new ThreadPoolError(`fast-reject: ${problem}`);
+    if (problem) return { ...(await instantiate({ build: 'plain' })), fallback: problem };
   }
-  return { glue, build: threaded ? 'threads' : 'plain', broken: null };
+  return { glue, build: threaded ? 'threads' : 'plain', broken: null, fallback: null };
+}
+
+/** Why the pool `starting` (of `count` workers) did not start within POOL_START_MS, or null once it has. */
+async function poolProblem(starting, count) {
+  let timer;
+  const late = new Promise((settle) => {
+    timer = setTimeout(
+      () =>
+        settle(
+          `the threaded build's ${count} pool workers did not start within ${POOL_START_MS / 1000} s ` +
+            '(a worker script that failed to load: a dev server that rewrites it, or a policy that blocks workers)',
+        ),
+      POOL_START_MS,
+    );
+  });
+  const started = starting.then(
+    () => null,
+    (error) => `the threaded build's pool workers failed to start: ${describe(error)}`,
+  );
+  try {
+    return await Promise.race([started, late]);
+  } finally {
+    clearTimeout(timer);
+  }
 }
 
 function info() {
@@ -93,6 +127,7 @@ function info() {
     build: loaded.build,
     threads: loaded.glue.threadCount(),
     memoryLimitBytes: loaded.glue.memoryLimitBytes(),
+    fallback: loaded.fallback,
   };
 }
 

@@ -12,7 +12,7 @@ import type {
   SceneOptions,
 } from './index.js';
 
-export { CancelledError } from './index.js';
+export { CancelledError, ThreadPoolError } from './index.js';
 
 /** Where the search runs: 'auto' (WebGPU on a hardware adapter, else the CPU), 'cpu', or 'gpu' (any adapter, a software one included; the CPU when there is none). */
 export type Backend = 'auto' | 'cpu' | 'gpu';

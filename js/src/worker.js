@@ -5,9 +5,9 @@
 // the loaded scene between searches. A search cannot be interrupted from
 // outside while it computes, so cancelling terminates the worker and starts
 // a fresh one, which loads the same scene again before the next request.
-import { CancelledError, describe, plainOptions, shown } from './errors.js';
+import { CancelledError, ThreadPoolError, describe, plainOptions, shown } from './errors.js';
 
-export { CancelledError };
+export { CancelledError, ThreadPoolError };
 
 const isNode = typeof process !== 'undefined' && !!process.versions?.node;
 const BACKENDS = ['auto', 'cpu', 'gpu'];
@@ -34,6 +34,7 @@ function templateSpec(template) {
 /** The error a worker's `{name, message}` stands for. */
 function revive({ name, message }) {
   if (name === 'CancelledError') return new CancelledError(message);
+  if (name === 'ThreadPoolError') return new ThreadPoolError(message);
   const error = name === 'TypeError' ? new TypeError(message) : new Error(message);
   return error;
 }

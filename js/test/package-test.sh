@@ -189,3 +189,92 @@ try {
 }
 JS
 timeout 300 node browser-example.mjs
+
+echo "-- the Vite dev server, cross-origin isolated, as the README configures it"
+# The README's config, and a plugin that breaks the pool's worker script on
+# demand: where the pool cannot start, 'auto' must run the plain build and
+# say why, and 'threads' must fail with a ThreadPoolError, both within
+# seconds rather than hang.
+awk '/^\/\/ vite.config.js/ { found = 1; next } found && /^```/ { exit } found' \
+  node_modules/fast-reject/README.md > readme.config.js
+cat > vite.config.js <<'JS'
+import config from './readme.config.js';
+
+// A pool worker's script fails to load (its fetch is the one whose
+// destination is a worker); the same file imported as a module still loads.
+function breakThePool(server) {
+  server.middlewares.use((request, response, next) => {
+    if (!/workerHelpers/.test(request.url) || request.headers['sec-fetch-dest'] !== 'worker') return next();
+    response.statusCode = 500;
+    response.end('broken on purpose');
+  });
+}
+if (process.env.BREAK_POOL) config.plugins = [{ name: 'break-the-pool', configureServer: breakThePool }];
+export default config;
+JS
+cat > src/dev.js <<'JS'
+import { SearchWorker, ThreadPoolError } from 'fast-reject/worker';
+
+const bytes = (url) => fetch(url).then((response) => response.arrayBuffer()).then((data) => new Uint8Array(data));
+globalThis.devResult = (async () => {
+  const build = new URLSearchParams(location.search).get('build') ?? 'auto';
+  const started = performance.now();
+  const search = new SearchWorker({ build });
+  try {
+    const info = await search.ready();
+    const [scene, template] = await Promise.all([bytes('/demo/scene.glb'), bytes('/demo/template.glb')]);
+    await search.loadScene(scene);
+    const report = await search.match({ bytes: template });
+    return { build: info.build, fallback: info.fallback, found: report.instances.length, seconds: (performance.now() - started) / 1000 };
+  } catch (error) {
+    return { error: error.name, poolError: error instanceof ThreadPoolError, message: error.message, seconds: (performance.now() - started) / 1000 };
+  } finally {
+    search.terminate();
+  }
+})();
+JS
+echo '<!doctype html><script type="module" src="/src/dev.js"></script>' > dev.html
+cat > dev-server.mjs <<JS
+import { spawn } from 'node:child_process';
+import { launchChromium } from '$repo/js/test/browser.js';
+
+/** Starts the Vite dev server; resolves with its URL and the process. */
+function startVite(env) {
+  const vite = spawn(process.execPath, ['$tools/vite/bin/vite.js', '--port', '5273'], { env: { ...process.env, ...env }, stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    vite.stdout.on('data', (data) => {
+      out += data;
+      const url = out.replace(/\x1b\[[0-9;]*m/g, '').match(/Local:\s+(http\S+)/);
+      if (url) resolve({ vite, url: url[1] });
+    });
+    vite.on('exit', (code) => reject(new Error('vite exited with ' + code + ': ' + out)));
+  });
+}
+
+async function run(env, build) {
+  const { vite, url } = await startVite(env);
+  const browser = await launchChromium();
+  try {
+    const page = await browser.newPage();
+    await page.goto(new URL('dev.html?build=' + build, url).href);
+    return await page.evaluate(() => globalThis.devResult);
+  } finally {
+    await browser.close();
+    vite.kill();
+  }
+}
+
+const fine = await run({}, 'auto');
+if (fine.build !== 'threads' || fine.found !== 3 || fine.fallback !== null) throw new Error('dev server: ' + JSON.stringify(fine));
+console.log('ok: under the Vite dev server the threaded build found 3 mugs in ' + fine.seconds.toFixed(1) + ' s');
+const fallback = await run({ BREAK_POOL: '1' }, 'auto');
+if (fallback.build !== 'plain' || fallback.found !== 3 || !/did not start/.test(fallback.fallback) || fallback.seconds > 15) {
+  throw new Error('broken pool, auto: ' + JSON.stringify(fallback));
+}
+console.log('ok: with the pool broken, auto ran the plain build after ' + fallback.seconds.toFixed(1) + ' s: ' + fallback.fallback);
+const refused = await run({ BREAK_POOL: '1' }, 'threads');
+if (!refused.poolError || refused.seconds > 15) throw new Error('broken pool, threads: ' + JSON.stringify(refused));
+console.log('ok: with the pool broken, threads failed with a ThreadPoolError after ' + refused.seconds.toFixed(1) + ' s');
+JS
+timeout 300 node dev-server.mjs

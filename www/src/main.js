@@ -78,8 +78,9 @@ function showBuild(info) {
     badge.textContent = `threaded: ${info.threads} threads (cross-origin isolated)`;
     badge.classList.add('on');
   } else {
-    const why = globalThis.crossOriginIsolated ? 'one core' : 'not cross-origin isolated';
+    const why = info.fallback ? 'the thread pool did not start' : globalThis.crossOriginIsolated ? 'one core' : 'not cross-origin isolated';
     badge.textContent = `single-threaded (${why})`;
+    badge.title = info.fallback ?? '';
     badge.classList.remove('on');
   }
 }
