@@ -15,10 +15,14 @@
             services, where every fitting repeats. --families 0 draws
             every part anew.
 
+Every recipe writes one mesh; --nodes writes each part as a glTF node of
+its own instead, as BIM and CAD exporters do (a viewer then has one draw
+call per part unless it merges them).
+
   python3 scripts/make-building-scenes.py slab OUT [--size 100] [--seed 1]
   python3 scripts/make-building-scenes.py terrain OUT [--size 30] [--cell 0.25]
   python3 scripts/make-building-scenes.py families OUT [--parts 3000]
-      [--families 20] [--seed 4]
+      [--families 20] [--seed 4] [--nodes]
 
 Needs numpy and trimesh; --model names a file of ../shared/models
 (default rocker-arm.obj).
@@ -126,6 +130,7 @@ def main():
     p.add_argument("--families", type=int, default=20)
     p.add_argument("--model", default="rocker-arm.obj")
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--nodes", action="store_true", help="each part a glTF node of its own")
     args = p.parse_args()
     if args.size is None:
         args.size = 30.0 if args.recipe == "terrain" else 100.0
@@ -140,14 +145,21 @@ def main():
         parts.append(copy)
         instances.append({"node": f"{args.model}#{i}", "transform": m.tolist()})
     os.makedirs(args.out, exist_ok=True)
-    scene = trimesh.util.concatenate(parts)
+    if args.nodes:
+        scene = trimesh.Scene()
+        for i, part in enumerate(parts):
+            scene.add_geometry(part, node_name=f"part-{i}", geom_name=f"part-{i}")
+        faces = sum(len(part.faces) for part in parts)
+    else:
+        scene = trimesh.util.concatenate(parts)
+        faces = len(scene.faces)
     scene.export(os.path.join(args.out, "scene.glb"))
     t.export(os.path.join(args.out, "template.glb"))
     truth = {"template": "template.glb", "scene": "scene.glb", "instances": instances,
              "template_radius": 0.3}
     with open(os.path.join(args.out, "truth.json"), "w") as f:
         json.dump(truth, f, indent=1)
-    print(f"{args.out}: {len(parts)} objects, {len(scene.faces)} triangles, {len(instances)} instances")
+    print(f"{args.out}: {len(parts)} objects, {faces} triangles, {len(instances)} instances")
 
 
 if __name__ == "__main__":
