@@ -253,14 +253,13 @@ const VIEW_MODES = [
   { box: 'markers', key: 'm', set: (on) => (view.markersVisible = on) },
 ];
 for (const mode of VIEW_MODES) $(mode.box).addEventListener('change', () => mode.set($(mode.box).checked));
-const modeForKey = (key) => VIEW_MODES.find((mode) => mode.key === key.toLowerCase());
 window.addEventListener('keydown', (event) => {
   // Keys typed into a field are the field's.
   if (event.target.closest?.('input, select, textarea') || event.ctrlKey || event.metaKey || event.altKey) return;
+  const mode = VIEW_MODES.find((m) => m.key === event.key.toLowerCase());
   if (event.key === 'f' || event.key === 'F' || event.key === 'Home') {
     view.frame();
-  } else if (modeForKey(event.key)) {
-    const mode = modeForKey(event.key);
+  } else if (mode) {
     $(mode.box).checked = !$(mode.box).checked;
     mode.set($(mode.box).checked);
   } else if (event.key === 'Escape' && state.running) {

@@ -98,6 +98,8 @@ export class View {
   #template = null;
   /** The template's box in its own coordinates, for posed matches. */
   #templateBox = null;
+  /** That box grown by BOX_MARGIN: what the shader tests (its uniforms are these corners). */
+  #matchBox = new THREE.Box3();
   #ghosts = new THREE.Group();
   /** Each match's centre and the radius of its ball, as last set. */
   #matchPoints = new Float64Array();
@@ -138,7 +140,7 @@ export class View {
     this.#makeControls();
 
     this.#highlights = highlightTexture();
-    this.#material = clayMaterial(this.#highlights, poseTexture());
+    this.#material = clayMaterial(this.#highlights, poseTexture(), this.#matchBox);
     this.#markers = screenMarkers();
     this.#scene.add(this.#markers);
     this.#selection = selectionSphere();
@@ -286,7 +288,7 @@ export class View {
     const uniforms = this.#material.userData.uniforms;
     uniforms.matchCount.value = count;
     uniforms.focusIndex.value = focus;
-    this.#matchPoints = Float64Array.from(positions.subarray?.(0, 3 * count) ?? positions.slice(0, 3 * count));
+    this.#matchPoints = Float64Array.from(positions.slice(0, 3 * count));
     this.#matchRadius = radius;
     placeMarkers(this.#markers, this.#matchPoints, focus);
     this.requestRender();
@@ -319,12 +321,7 @@ export class View {
       this.#matchInverses.push(inverse.clone());
     });
     texture.needsUpdate = true;
-    const uniforms = this.#material.userData.uniforms;
-    if (box) {
-      const margin = BOX_MARGIN * box.getBoundingSphere(new THREE.Sphere()).radius;
-      uniforms.boxMin.value.copy(box.min).subScalar(margin);
-      uniforms.boxMax.value.copy(box.max).addScalar(margin);
-    }
+    if (box) this.#matchBox.copy(box).expandByScalar(BOX_MARGIN * box.getBoundingSphere(new THREE.Sphere()).radius);
     this.#applyIsolate();
     this.requestRender();
   }
@@ -333,18 +330,15 @@ export class View {
   #inMatch(p) {
     const r2 = this.#matchRadius * this.#matchRadius;
     const local = new THREE.Vector3();
-    const uniforms = this.#material.userData.uniforms;
-    const count = uniforms.matchCount.value;
-    for (let i = 0; i < count; i += 1) {
-      const c = this.#matchPoints;
+    const c = this.#matchPoints;
+    for (let i = 0; i < c.length / 3; i += 1) {
       const dx = p.x - c[3 * i];
       const dy = p.y - c[3 * i + 1];
       const dz = p.z - c[3 * i + 2];
       if (dx * dx + dy * dy + dz * dz > r2) continue;
       const inverse = this.#matchInverses[i];
       if (!inverse) return true;
-      local.copy(p).applyMatrix4(inverse);
-      if (local.clone().max(uniforms.boxMin.value).min(uniforms.boxMax.value).distanceToSquared(local) === 0) return true;
+      if (this.#matchBox.containsPoint(local.copy(p).applyMatrix4(inverse))) return true;
     }
     return false;
   }
@@ -364,7 +358,7 @@ export class View {
   }
 
   #applyIsolate() {
-    const on = this.#isolate && this.#material.userData.uniforms.matchCount.value > 0;
+    const on = this.#isolate && this.#matchPoints.length > 0;
     this.#material.userData.uniforms.isolateMatches.value = on ? 1 : 0;
     const p = new THREE.Vector3();
     const c = this.#matchPoints;
@@ -730,14 +724,14 @@ function placeMarkers(markers, points, focus) {
  * colour: inside its ball and, for a posed match, inside the template's
  * box at its pose. Isolate drops every other fragment.
  */
-function clayMaterial(highlights, poses) {
+function clayMaterial(highlights, poses, matchBox) {
   const material = new THREE.MeshStandardMaterial({ color: CLAY, roughness: 0.62, metalness: 0, side: THREE.DoubleSide });
   const uniforms = {
     matchBalls: { value: highlights },
     matchCount: { value: 0 },
     matchPoses: { value: poses },
-    boxMin: { value: new THREE.Vector3() },
-    boxMax: { value: new THREE.Vector3() },
+    boxMin: { value: matchBox.min },
+    boxMax: { value: matchBox.max },
     isolateMatches: { value: 0 },
     focusIndex: { value: -1 },
     surfaceOpacity: { value: 1 },
