@@ -3,6 +3,8 @@
 // the plain and threaded builds in headless Chromium (2 threads), with the
 // peak wasm memory. Best of N runs of the search's total time (parse,
 // voxelize, template, match, group). Run by scripts/bench-wasm.sh.
+// A scene is a folder of ../shared/scenes, or `generated/NAME` for one of
+// target/bench-inputs (the many-part buildings of `scripts/bench.py scale`).
 import { execFileSync } from 'node:child_process';
 import { writeFileSync } from 'node:fs';
 import { fileURLToPath } from 'node:url';
@@ -40,7 +42,8 @@ function best(n, f) {
 }
 
 function matchArgs(scene) {
-  return ['match', `${shared}/${scene}/scene.glb`, '--template', `${shared}/${scene}/template.glb`, '--json'];
+  const dir = scene.startsWith('generated/') ? `${repo}target/bench-inputs/${scene.slice(10)}` : `${shared}/${scene}`;
+  return ['match', `${dir}/scene.glb`, '--template', `${dir}/template.glb`, '--json'];
 }
 
 const native = [`${repo}target/release/fast-reject`];

@@ -15,6 +15,8 @@ const ROOTS = {
   '/pkg/': resolve(repo, 'pkg'),
   '/page/': resolve(repo, 'js/test/page'),
   '/scenes/': resolve(repo, '../shared/scenes'),
+  // Scenes made by the generators (scripts/bench.py writes them there).
+  '/scenes/generated/': resolve(repo, 'target/bench-inputs'),
 };
 /** Headless Chromium on a closed network (see ../shared/TOOLCHAIN.md). */
 const CHROMIUM_FLAGS = [
