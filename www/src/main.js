@@ -844,8 +844,8 @@ globalThis.viewer = {
   get cutaway() {
     return view.cutaway;
   },
-  /** The colours drawn at scene points, [r, g, b] each, without ghosts, markers or the sphere. */
-  coloursAt: (points) => view.coloursAt(points),
+  /** The colours drawn at scene points, [r, g, b] each (a square of them with `{ spread }`), without ghosts, markers or the sphere. */
+  coloursAt: (points, options) => view.coloursAt(points, options),
   /** The camera's distance to the point it orbits (tests check fit and focus with it). */
   get cameraDistance() {
     return view.distanceToTarget();

@@ -406,9 +406,12 @@ export class View {
   /**
    * The colours drawn at scene points' pixels, as [r, g, b] (0-255) each,
    * from one frame without the ghosts, markers and selection sphere: tests
-   * read whether a match can be seen from here.
+   * read whether a match can be seen from here. With `spread` > 0, each
+   * point gives the colours of the square of pixels within `spread` of its
+   * own, as a part a few pixels wide may leave its centre's pixel to what
+   * lies beside it.
    */
-  coloursAt(points) {
+  coloursAt(points, { spread = 0 } = {}) {
     const hidden = [this.#ghosts, this.#markers, this.#selection].filter((o) => o.visible);
     for (const o of hidden) o.visible = false;
     this.#camera.updateMatrixWorld();
@@ -422,9 +425,11 @@ export class View {
       const { x, y } = this.project(point);
       const px = Math.round(((x - rect.left) / rect.width) * canvas.width);
       const py = canvas.height - 1 - Math.round(((y - rect.top) / rect.height) * canvas.height);
-      const out = new Uint8Array(4);
-      gl.readPixels(px, py, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, out);
-      return [out[0], out[1], out[2]];
+      const side = 2 * spread + 1;
+      const out = new Uint8Array(4 * side * side);
+      gl.readPixels(px - spread, py - spread, side, side, gl.RGBA, gl.UNSIGNED_BYTE, out);
+      const square = Array.from({ length: side * side }, (_, i) => [out[4 * i], out[4 * i + 1], out[4 * i + 2]]);
+      return spread > 0 ? square : square[0];
     });
     this.requestRender();
     return colours;
