@@ -59,7 +59,8 @@ pub struct Survivor {
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Progress {
     /// What is being worked through: [`Progress::PARTS`],
-    /// [`Progress::WINDOWS`] or [`Progress::CANDIDATES`].
+    /// [`Progress::WINDOWS`], [`Progress::CANDIDATES`] or
+    /// [`Progress::SURFACE`].
     pub step: &'static str,
     /// How many of them are done.
     pub done: usize,
@@ -74,6 +75,9 @@ impl Progress {
     pub const WINDOWS: &'static str = "windows";
     /// The mesh's vertices, for the curvature descriptor.
     pub const CANDIDATES: &'static str = "candidates";
+    /// The steps of welding the mesh and building its adjacency, before
+    /// the curvature descriptor's first layer.
+    pub const SURFACE: &'static str = "surface steps";
 
     /// The share done, 0 to 1 (1 when there is nothing to do).
     pub fn share(&self) -> f64 {

@@ -1,6 +1,7 @@
 //! Progress between layers: a search of many parts, or of the curvature
-//! descriptor over many vertices, tells how far it has come, and a
-//! `Break` there cancels it like one from a layer.
+//! descriptor over many vertices (after building the welded surface), tells
+//! how far it has come, and a `Break` there cancels it like one from a
+//! layer.
 
 use std::ops::ControlFlow;
 
@@ -64,8 +65,7 @@ fn a_search_of_many_parts_counts_them_to_the_end() {
     assert!(recorder.seen[0].total > 1, "{:?}", recorder.seen);
 }
 
-#[test]
-fn the_curvature_descriptor_counts_its_vertices_to_the_end() {
+fn curvature_on_a_sphere() -> (Scene, TemplateSource, MatchOptions) {
     let scene = Scene::new(
         uv_sphere(Vec3::ZERO, 1.0, 32, 64),
         &SceneOptions::DEFAULT.with_resolution(64),
@@ -77,9 +77,45 @@ fn the_curvature_descriptor_counts_its_vertices_to_the_end() {
     };
     let mut options = MatchOptions::DEFAULT;
     options.descriptor = DescriptorKind::Curvature;
+    (scene, selection, options)
+}
+
+#[test]
+fn the_curvature_descriptor_counts_its_surface_steps_then_its_vertices_to_the_end() {
+    let (scene, selection, options) = curvature_on_a_sphere();
     let mut recorder = Recorder::default();
     search(&scene, &selection, &options, &mut recorder).unwrap();
+    counts_up_to_the_end(&recorder.seen, Progress::SURFACE);
     counts_up_to_the_end(&recorder.seen, Progress::CANDIDATES);
+    let last_surface = recorder
+        .seen
+        .iter()
+        .rposition(|p| p.step == Progress::SURFACE);
+    let first_vertex = recorder
+        .seen
+        .iter()
+        .position(|p| p.step == Progress::CANDIDATES);
+    assert!(last_surface < first_vertex, "{:?}", recorder.seen);
+}
+
+#[test]
+fn a_break_while_the_surface_is_built_cancels_and_the_next_search_builds_it() {
+    let (scene, selection, options) = curvature_on_a_sphere();
+    let mut stopped = Recorder {
+        stop_at: Some(2),
+        ..Recorder::default()
+    };
+    let e = search(&scene, &selection, &options, &mut stopped).unwrap_err();
+    assert!(matches!(e, Error::Cancelled), "{e:?}");
+    assert!(
+        stopped.seen.iter().all(|p| p.step == Progress::SURFACE) && stopped.seen.len() == 2,
+        "{:?}",
+        stopped.seen
+    );
+    let mut recorder = Recorder::default();
+    let report = search(&scene, &selection, &options, &mut recorder).unwrap();
+    assert!(!report.instances.is_empty());
+    counts_up_to_the_end(&recorder.seen, Progress::SURFACE);
 }
 
 #[test]

@@ -180,9 +180,9 @@ export class CancelledError extends Error {
 /** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel: the search then throws (rejects with) a `CancelledError`. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
-/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices). */
+/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices, after the steps of welding the mesh into a surface). */
 export interface SearchProgress {
-  step: 'parts' | 'windows' | 'candidates';
+  step: 'parts' | 'windows' | 'candidates' | 'surface steps';
   done: number;
   total: number;
 }

@@ -155,3 +155,31 @@ test('matchGpu without an adapter (Node) searches on the CPU and finds what matc
   template.free();
   scene.free();
 });
+
+test('a curvature search tells the steps of welding the mesh, then its vertices; a stop while welding cancels it', async () => {
+  await init();
+  const dir = new URL('twisted-homer/', shared);
+  const scene = Scene.fromBytes(await readFile(new URL('scene.glb', dir)));
+  const template = Template.fromBytes(await readFile(new URL('template.glb', dir)));
+  const options = { descriptor: 'curvature' };
+  try {
+    const stopped = [];
+    const stopAtTwo = (progress) => {
+      stopped.push([progress.step, progress.done, progress.total]);
+      return stopped.length < 2;
+    };
+    assert.throws(() => scene.match(template, options, { onProgress: stopAtTwo }), /cancelled/);
+    assert.deepEqual(stopped, [['surface steps', 1, 6], ['surface steps', 2, 6]]);
+    // The next search welds again, to the end, before the vertices.
+    const steps = [];
+    const report = scene.match(template, options, { onProgress: (progress) => void steps.push(progress) });
+    assert.ok(report.instances.length > 0);
+    const welding = steps.filter((p) => p.step === 'surface steps').map((p) => p.done);
+    assert.deepEqual(welding, [1, 2, 3, 4, 5, 6]);
+    const lastWeld = steps.findLastIndex((p) => p.step === 'surface steps');
+    assert.ok(steps.slice(lastWeld + 1).length > 0 && steps.slice(lastWeld + 1).every((p) => p.step === 'candidates'));
+  } finally {
+    template.free();
+    scene.free();
+  }
+});

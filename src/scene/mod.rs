@@ -384,6 +384,22 @@ impl Scene {
         Ok(tight)
     }
 
+    /// The welded surface, built on first use with `step` told how many of
+    /// [`Surface::BUILD_STEPS`] are done; `None` when `step` stops it (a
+    /// later call starts again).
+    pub(crate) fn surface_observed(
+        &self,
+        step: &mut dyn FnMut(usize) -> std::ops::ControlFlow<()>,
+    ) -> Option<&Surface> {
+        if self.surface.get().is_none() {
+            let start = now_ms();
+            let surface = Surface::build(&self.mesh, self.backend, step)?;
+            // Another thread may have built it meanwhile: the same surface.
+            let _ = self.surface.set((surface, now_ms() - start));
+        }
+        self.surface.get().map(|(surface, _)| surface)
+    }
+
     /// The welded surface with its adjacency (built on first use).
     pub fn surface(&self) -> &Surface {
         &self

@@ -36,7 +36,16 @@ pub(super) fn search_curvature(
     observer: &mut dyn Observer,
 ) -> Result<MatchReport> {
     check_surface_search(scene, source)?;
-    let surface = scene.surface();
+    // Seconds on a mesh of millions of triangles: reported, and stoppable.
+    let surface = scene
+        .surface_observed(&mut |done| {
+            observer.on_progress(&Progress {
+                step: Progress::SURFACE,
+                done,
+                total: Surface::BUILD_STEPS,
+            })
+        })
+        .ok_or(Error::Cancelled)?;
     let t0 = now_ms();
     let template = CurvatureTemplate::new(source, scene, options.layers)?;
     let radii = template.radii();

@@ -524,7 +524,7 @@ fn layer_to_js(stats: &LayerStats) -> JsValue {
 }
 
 /// How far the search has come, as a plain object: `step` ("parts",
-/// "windows" or "candidates"), `done` and `total`.
+/// "windows", "candidates" or "surface steps"), `done` and `total`.
 fn progress_to_js(progress: &Progress) -> JsValue {
     let object = Object::new();
     set(&object, "step", &JsValue::from_str(progress.step));

@@ -509,6 +509,12 @@ async function runSearch() {
       if (generation !== state.generation) return;
       state.progress = { step: what, done, total };
       if (total < 2) return;
+      // The weld before a curvature search: told, but the bar is the
+      // vertices' (it would otherwise fill twice).
+      if (what === 'surface steps') {
+        showStep(`Welding the mesh for the curvature search: step ${done} of ${total}`);
+        return;
+      }
       const now = performance.now();
       if (!firstSeen.has(what)) firstSeen.set(what, { done, at: now });
       const first = firstSeen.get(what);

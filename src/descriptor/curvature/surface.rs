@@ -5,6 +5,7 @@
 use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{TriMesh, weld_vertices_on};
+use std::ops::ControlFlow;
 
 /// A welded triangle mesh with edge adjacency, laid out for the curvature
 /// descriptor's neighbourhood walks: every array a walk reads is flat and
@@ -281,7 +282,33 @@ impl Surface {
     /// (every backend builds the same surface: sorts have unique keys, and
     /// parallel steps keep their input order).
     pub fn new(mesh: &TriMesh, backend: Threads) -> Surface {
+        match Surface::build(mesh, backend, &mut |_| ControlFlow::Continue(())) {
+            Some(surface) => surface,
+            None => unreachable!("a build that is never stopped ends"),
+        }
+    }
+
+    /// The steps [`Surface::build`] reports: the weld, the vertex order,
+    /// the triangles, the edges, the patches and the per-triangle arrays.
+    pub const BUILD_STEPS: usize = 6;
+
+    /// As [`Surface::new`], telling `step` how many of [`Self::BUILD_STEPS`]
+    /// are done after each (on a mesh of millions of triangles the build
+    /// takes seconds); `None` once `step` returns `Break`.
+    pub fn build(
+        mesh: &TriMesh,
+        backend: Threads,
+        step: &mut dyn FnMut(usize) -> ControlFlow<()>,
+    ) -> Option<Surface> {
+        let mut done = 0;
+        let mut next_step = || {
+            done += 1;
+            step(done).is_continue()
+        };
         let (welded, count) = weld_vertices_on(mesh.positions(), backend);
+        if !next_step() {
+            return None;
+        }
         let mut positions = vec![Vec3::ZERO; count];
         for (i, &id) in welded.iter().enumerate() {
             positions[id as usize] = mesh.vertex(i as u32);
@@ -308,6 +335,9 @@ impl Surface {
         let positions: Vec<Vec3> = backend.map(count, |i| positions[order[i] as usize]);
         let ids: Vec<u32> = backend.map(welded.len(), |i| rank[welded[i] as usize]);
         drop((welded, rank, order));
+        if !next_step() {
+            return None;
+        }
         let file_triangles = mesh.triangles();
         let triangles: Vec<[u32; 3]> = backend.filter_map(file_triangles.len(), |i| {
             let t = file_triangles[i].map(|v| ids[v as usize]);
@@ -323,6 +353,9 @@ impl Surface {
         drop(by_lowest);
         let triangles: Vec<[u32; 3]> = backend.map(sorted.len(), |i| triangles[sorted[i] as usize]);
         drop(sorted);
+        if !next_step() {
+            return None;
+        }
         // Half-edges sorted by their undirected key, then by id: equal keys
         // are one edge. Bucketed by the lower end (a counting sort), then
         // each small bucket sorted.
@@ -363,6 +396,9 @@ impl Surface {
         }
         let (neighbour_start, neighbour_list) = compressed(triangles.len(), &neighbours);
         drop(neighbours);
+        if !next_step() {
+            return None;
+        }
         let face_normal = |t: usize| {
             let p = triangles[t].map(|v| positions[v as usize]);
             (p[1] - p[0]).cross(p[2] - p[0])
@@ -382,6 +418,9 @@ impl Surface {
                 })
             },
         );
+        if !next_step() {
+            return None;
+        }
         let (order, new_of_old) = (&layout.order, &layout.new_of_old);
         let mut new_start = Vec::with_capacity(triangles.len() + 1);
         new_start.push(0u32);
@@ -451,7 +490,7 @@ impl Surface {
             patches: Patches::default(),
         };
         surface.patches = layout.summarize(&surface, backend);
-        surface
+        next_step().then_some(surface)
     }
 
     /// The patch triangle `t` belongs to.
