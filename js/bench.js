@@ -41,8 +41,11 @@ function best(n, f) {
   return results.reduce((a, b) => (b.ms < a.ms ? b : a));
 }
 
+/** The prefix that names a scene of target/bench-inputs (served to the page under /scenes/generated/). */
+const GENERATED = 'generated/';
+
 function matchArgs(scene) {
-  const dir = scene.startsWith('generated/') ? `${repo}target/bench-inputs/${scene.slice(10)}` : `${shared}/${scene}`;
+  const dir = scene.startsWith(GENERATED) ? `${repo}target/bench-inputs/${scene.slice(GENERATED.length)}` : `${shared}/${scene}`;
   return ['match', `${dir}/scene.glb`, '--template', `${dir}/template.glb`, '--json'];
 }
 
