@@ -45,7 +45,11 @@ fn match_prints_the_json_contract() {
         assert!(i["distance"].is_number() && i["support"].is_u64());
     }
     let stages = v["stages"].as_array().unwrap();
-    assert_eq!(stages.len(), 12);
+    assert_eq!(
+        stages.len(),
+        18,
+        "six layers each of volume, centroid and harmonics"
+    );
     for key in [
         "descriptor",
         "layer",
@@ -60,7 +64,8 @@ fn match_prints_the_json_contract() {
         );
     }
     assert_eq!(stages[0]["descriptor"], "volume");
-    assert_eq!(stages[11]["descriptor"], "harmonics");
+    assert!(stages.iter().any(|s| s["descriptor"] == "centroid"));
+    assert_eq!(stages[stages.len() - 1]["descriptor"], "harmonics");
     // The scene's 512, or finer where the template is small.
     assert!(v["grid"]["resolution"].as_u64().unwrap() >= 512);
     assert!(
@@ -399,7 +404,7 @@ fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     }
     assert!(!gpu["gpu"]["adapter"].as_str().unwrap().is_empty());
     assert!(gpu["gpu"]["fallback"].is_null());
-    assert_eq!(cpu["stages"].as_array().unwrap().len(), 12);
+    assert_eq!(cpu["stages"].as_array().unwrap().len(), 18);
     let positions = |v: &serde_json::Value| -> Vec<serde_json::Value> {
         v["instances"]
             .as_array()

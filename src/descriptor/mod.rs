@@ -10,6 +10,7 @@
 
 mod anchors;
 pub(crate) mod batch;
+pub mod centroid;
 pub mod clutter;
 pub mod curvature;
 mod device;
@@ -17,6 +18,7 @@ pub mod harmonics;
 pub mod volume;
 
 pub use anchors::{Anchors, MAX_ANCHORS, all_anchors};
+pub use centroid::{CentroidDescriptor, CentroidTemplate};
 pub use clutter::ClutterPolicy;
 pub use curvature::CurvatureDescriptor;
 pub use device::{LayerDevice, WaveQueue, run_together};

@@ -338,6 +338,46 @@ impl Ball {
         }
     }
 
+    /// Solid voxels in the ball around voxel `v` (level > 0), the voxels
+    /// it covers, and their first moment about the voxel's centre, in
+    /// voxels (each block's voxels counted at the block's centre).
+    pub fn moment(&self, solid: &Solid, v: [u16; 3]) -> BallMoment {
+        assert!(self.level > 0, "moments are read from level 1 on");
+        let level = solid.level(self.level, Threads::Serial);
+        let (p, c) = self.phase_at(v);
+        let phase = &self.phases[p];
+        let d = level.dims().map(|x| x as i64);
+        let (mut n, mut m) = (0i64, [0i64; 3]);
+        for sp in &phase.spans {
+            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
+            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
+                continue;
+            }
+            let (x0, x1) = (
+                (c[0] + sp.x0 as i64).max(0),
+                (c[0] + sp.x1 as i64).min(d[0] - 1),
+            );
+            if x0 > x1 {
+                continue;
+            }
+            let row = level.row_start(y as usize, z as usize);
+            let (count, along_x) = level.run_moment(row, x0 as usize, x1 as usize, c[0]);
+            let count = i64::from(count);
+            n += count;
+            m[0] += along_x;
+            m[1] += count * sp.dy as i64;
+            m[2] += count * sp.dz as i64;
+        }
+        // From the centre block's centre to the voxel's, in voxels.
+        let s = (1i64 << self.level) as f64;
+        let offset = v.map(|x| (x as i64 & ((1 << self.level) - 1)) as f64 - (s - 1.0) / 2.0);
+        BallMoment {
+            solid: n as u64,
+            covered: phase.voxels,
+            first: [0, 1, 2].map(|a| m[a] as f64 * s - n as f64 * offset[a]),
+        }
+    }
+
     /// The voxels the ball around voxel `v` covers (its phase's blocks
     /// times their size): what [`Ball::count`]'s solid voxels are divided
     /// by.
@@ -373,6 +413,31 @@ impl Ball {
     pub fn fraction(&self, solid: &Solid, v: [u16; 3]) -> f64 {
         let (inside, all) = self.count(solid, v);
         inside as f64 / all as f64
+    }
+}
+
+/// What [`Ball::moment`] reads: the ball's solid voxels, the voxels it
+/// covers, and the solid's first moment about the centre (voxels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BallMoment {
+    pub solid: u64,
+    pub covered: u64,
+    pub first: [f64; 3],
+}
+
+impl BallMoment {
+    /// The solid fraction (Eq. 3).
+    pub fn fraction(&self) -> f64 {
+        self.solid as f64 / self.covered as f64
+    }
+
+    /// The centroid's distance from the centre as a share of the radius,
+    /// weighted by the solid fraction: |first moment| / (covered x
+    /// radius), in 0..=1. Rotation invariant, and moved by material added
+    /// anywhere in the ball by at most the fraction added.
+    pub fn offset(&self, radius: f64) -> f64 {
+        let [x, y, z] = self.first;
+        (x * x + y * y + z * z).sqrt() / (self.covered as f64 * radius)
     }
 }
 

@@ -14,7 +14,7 @@ mod skin;
 mod surface;
 mod window;
 
-pub use ball::Ball;
+pub use ball::{Ball, BallMoment};
 pub(crate) use estimate::{ball_bytes, voxel_bytes, voxel_work};
 pub use fill::fill_solid;
 pub(crate) use grid::AtomicGrid;

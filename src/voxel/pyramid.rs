@@ -111,6 +111,24 @@ impl CountLevel {
         self.occupancy.get_or_init(|| occupancy)
     }
 
+    /// Solid voxels in blocks `x0..=x1` of the row starting at `row`, and
+    /// their first moment along x about block `about`, in blocks. Read from
+    /// the running sums alone (summation by parts: the moment about the
+    /// run's start is the sum over its blocks of the count to the run's
+    /// end), so it needs no table beside them; the extra sums read lie in
+    /// the cache lines of the run's two ends.
+    #[inline]
+    pub fn run_moment(&self, row: usize, x0: usize, x1: usize, about: i64) -> (u32, i64) {
+        let sums = &self.prefix[row + x0..=row + x1 + 1];
+        let end = sums[sums.len() - 1];
+        let n = end - sums[0];
+        let from_start: u64 = sums[1..sums.len() - 1]
+            .iter()
+            .map(|&s| u64::from(end - s))
+            .sum();
+        (n, from_start as i64 + i64::from(n) * (x0 as i64 - about))
+    }
+
     /// Solid voxels in block (x, y, z).
     pub fn block(&self, x: usize, y: usize, z: usize) -> u32 {
         let r = self.row_start(y, z);

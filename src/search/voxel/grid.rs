@@ -12,7 +12,9 @@ use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
 use crate::clock::now_ms;
 use crate::descriptor::harmonics::ClutterGuard;
-use crate::descriptor::{Anchors, HarmonicsDescriptor, LayerBatch, VolumeDescriptor};
+use crate::descriptor::{
+    Anchors, CentroidDescriptor, HarmonicsDescriptor, LayerBatch, VolumeDescriptor,
+};
 use crate::error::Result;
 use crate::instances::Instance;
 use crate::math::Vec3;
@@ -169,7 +171,30 @@ impl PartSearch<'_> {
         candidates
     }
 
-    /// The volume and harmonics layers over `candidates`, on the device
+    /// The volume stage over `voxels`, its balls bound for the CPU or made
+    /// for the device.
+    fn volume_stage<'v>(&'v self, voxels: &'v PartVoxels, on_device: bool) -> VolumeDescriptor<'v> {
+        let backend = self.options.backend;
+        VolumeDescriptor::with_balls(
+            voxels.solid(),
+            voxels.skin(),
+            self.template.radii(),
+            self.balls
+                .iter()
+                .map(|b| match on_device {
+                    // The GPU counts from the runs alone, and a part of a
+                    // wave would hold a copy of them for nothing.
+                    true => b.clone().for_solid(voxels.solid(), backend),
+                    false => b.clone().bind(voxels.solid(), backend),
+                })
+                .collect(),
+            self.template_volume.clone(),
+            self.options.volume_threshold,
+        )
+        .with_clutter(self.options.clutter)
+    }
+
+    /// The volume, centroid and harmonics layers over `candidates`, on the device
     /// where the runner has one: the survivors and each layer's figures. A layer
     /// the device gave back to the CPU is noted in `found`.
     async fn cascade(
@@ -188,24 +213,7 @@ impl PartSearch<'_> {
             (None, Some(device)) => Some(device.batch(voxels.solid())),
             (None, None) => None,
         };
-        let on_device = batch.is_some();
-        let volume = VolumeDescriptor::with_balls(
-            voxels.solid(),
-            voxels.skin(),
-            radii,
-            self.balls
-                .iter()
-                .map(|b| match on_device {
-                    // The GPU counts from the runs alone, and a part of a
-                    // wave would hold a copy of them for nothing.
-                    true => b.clone().for_solid(voxels.solid(), backend),
-                    false => b.clone().bind(voxels.solid(), backend),
-                })
-                .collect(),
-            self.template_volume.clone(),
-            options.volume_threshold,
-        )
-        .with_clutter(options.clutter);
+        let volume = self.volume_stage(voxels, batch.is_some());
         let harmonics = self.template_harmonics.as_ref().map(|signatures| {
             HarmonicsDescriptor::new(
                 voxels.solid(),
@@ -222,9 +230,24 @@ impl PartSearch<'_> {
                 templates: volume.templates(),
             })
         });
+        // Between the two, when both run.
+        let centroid = self.template_centroid.as_ref().map(|templates| {
+            CentroidDescriptor::new(
+                voxels.solid(),
+                voxels.skin(),
+                radii,
+                self.centroid_balls.clone(),
+                templates.clone(),
+                backend,
+            )
+            .with_clutter(options.clutter)
+        });
         let mut stages: Vec<&dyn Stage> = Vec::new();
         if options.descriptor != DescriptorKind::Harmonics {
             stages.push(&volume);
+        }
+        if let Some(c) = &centroid {
+            stages.push(c);
         }
         if let Some(h) = &harmonics {
             stages.push(h);

@@ -8,7 +8,9 @@ use super::signatures::{Signatures, signatures};
 use crate::align::SurfaceSamples;
 use crate::budget::{Budget, Item, TemplatePiece, TemplateReach};
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
-use crate::descriptor::{SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{
+    CentroidDescriptor, CentroidTemplate, SphericalTransform, VolumeDescriptor,
+};
 use crate::error::Result;
 use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
@@ -33,6 +35,10 @@ pub(super) struct PartSearch<'a> {
     /// Per anchor: the template's volume and harmonics signatures.
     pub(super) template_volume: Vec<Vec<f64>>,
     pub(super) template_harmonics: Option<Vec<Vec<HarmonicsSignature>>>,
+    /// The centroid stage's balls, and the template's readings per anchor
+    /// (none unless both the volume and the harmonics are searched).
+    pub(super) centroid_balls: Vec<Ball>,
+    pub(super) template_centroid: Option<Vec<Vec<CentroidTemplate>>>,
     pub(super) transform: SphericalTransform,
     /// Per anchor: the verifier placed by it.
     pub(super) verifiers: Vec<Verifier>,
@@ -73,10 +79,20 @@ impl<'a> PartSearch<'a> {
         // The balls' tables are built once: read at the template's one
         // point, then bound to each part's layout.
         let balls = VolumeDescriptor::unbound_balls(template.radii(), voxel, options.backend);
+        let centroid_balls =
+            CentroidDescriptor::unbound_balls(template.radii(), voxel, options.backend);
         let Signatures {
             volume: template_volume,
             harmonics: template_harmonics,
-        } = signatures(source, &template, &balls, &transform, options)?;
+            centroid: template_centroid,
+        } = signatures(
+            source,
+            &template,
+            &balls,
+            &centroid_balls,
+            &transform,
+            options,
+        )?;
         let max_hidden =
             options.hidden_surface_for(matches!(source, TemplateSource::Selection { .. }));
         let verifiers = verifiers(&template, &radii_voxels, max_hidden, options);
@@ -92,6 +108,8 @@ impl<'a> PartSearch<'a> {
             balls,
             template_volume,
             template_harmonics,
+            centroid_balls,
+            template_centroid,
             transform,
             verifiers,
             samples: template_samples(&surface, &template, scene.backend()),

@@ -17,19 +17,30 @@
 //! the unshifted template. A selection is read from the scene's voxels,
 //! whose phase its copies share.
 
+use crate::descriptor::centroid::BASE_TOLERANCE;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
-use crate::descriptor::{HarmonicsDescriptor, SphericalTransform, VolumeDescriptor};
+use crate::descriptor::{
+    CentroidDescriptor, CentroidTemplate, HarmonicsDescriptor, SphericalTransform, VolumeDescriptor,
+};
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::options::{DescriptorKind, MatchOptions};
 use crate::template::{TemplateSource, VoxelTemplate};
-use crate::voxel::{Ball, Solid, voxelize};
+use crate::voxel::{Ball, BallMoment, Solid, voxelize};
 
 /// Per anchor, the template's volume signature and, unless only the volume
-/// is searched, its harmonics one.
+/// is searched, its harmonics one; where both are, its centroid readings.
 pub(super) struct Signatures {
     pub(super) volume: Vec<Vec<f64>>,
     pub(super) harmonics: Option<Vec<Vec<HarmonicsSignature>>>,
+    pub(super) centroid: Option<Vec<Vec<CentroidTemplate>>>,
+}
+
+/// What one phase of the template reads, before the phases are combined.
+struct PhaseReading {
+    signatures: Signatures,
+    /// Per anchor, per centroid ball.
+    centroid: Vec<Vec<BallMoment>>,
 }
 
 /// How far the two phases are shifted along every axis, in voxels.
@@ -41,15 +52,36 @@ pub(super) fn signatures(
     source: &TemplateSource,
     template: &VoxelTemplate,
     balls: &[Ball],
+    centroid_balls: &[Ball],
     transform: &SphericalTransform,
     options: &MatchOptions,
 ) -> Result<Signatures> {
-    let read = |solid: &Solid| read_at_anchors(solid, template, balls, transform, options);
+    let read = |solid: &Solid| PhaseReading {
+        signatures: read_at_anchors(solid, template, balls, transform, options),
+        centroid: template
+            .anchors()
+            .iter()
+            .map(|&a| CentroidDescriptor::describe(solid, a, centroid_balls, options.backend))
+            .collect(),
+    };
+    let with_centroid = |mut signatures: Signatures, phases: &[Vec<Vec<BallMoment>>]| {
+        if options.descriptor == DescriptorKind::VolumeHarmonics {
+            signatures.centroid = Some(centroid_templates(
+                template,
+                centroid_balls,
+                phases,
+                options,
+            ));
+        }
+        signatures
+    };
     let TemplateSource::Model(model) = source else {
-        return Ok(read(template.voxels().solid()));
+        let one = read(template.voxels().solid());
+        return Ok(with_centroid(one.signatures, &[one.centroid]));
     };
     let spec = template.voxels().grid().spec();
     let mut sum: Option<Signatures> = None;
+    let mut phases = Vec::new();
     for along in SHIFTS {
         let shift = Vec3::splat(along * spec.voxel_size);
         // The grid is padded by a voxel on every side: a quarter voxel's
@@ -57,12 +89,76 @@ pub(super) fn signatures(
         let shifted = model.map_positions(|p| p + shift)?;
         // The solid only: the signatures need no skin.
         let these = read(&Solid::new(voxelize(&shifted, spec, options.backend)));
+        phases.push(these.centroid);
         sum = Some(match sum {
-            None => these,
-            Some(sum) => sum.plus(these),
+            None => these.signatures,
+            Some(sum) => sum.plus(these.signatures),
         });
     }
-    Ok(sum.expect("two phases").scaled(1.0 / SHIFTS.len() as f64))
+    let mean = sum.expect("two phases").scaled(1.0 / SHIFTS.len() as f64);
+    Ok(with_centroid(mean, &phases))
+}
+
+/// How far from its anchor, in candidate spacings, the template's offset
+/// is read to bound a candidate's. A candidate the harmonics keep may
+/// stand further off than one spacing (a copy's support counts them): read
+/// within one, two generated scenes (gen8 h7, h8) lost their best
+/// survivors and a symmetric part came out turned; within two, all 52
+/// compared scenes keep their instances.
+const NEIGHBOURHOOD_SPACINGS: i32 = 2;
+
+/// The template's centroid readings per anchor and ball: the mean over the
+/// `phases`, allowed to differ by their spread, by how much the offset
+/// changes over the skin voxels a candidate may stand on instead of the
+/// anchor (see [`NEIGHBOURHOOD_SPACINGS`]), and by [`BASE_TOLERANCE`].
+fn centroid_templates(
+    template: &VoxelTemplate,
+    balls: &[Ball],
+    phases: &[Vec<Vec<BallMoment>>],
+    options: &MatchOptions,
+) -> Vec<Vec<CentroidTemplate>> {
+    let voxels = template.voxels();
+    let reach = i32::try_from(template.candidate_spacing().max(1))
+        .unwrap_or(i32::MAX / NEIGHBOURHOOD_SPACINGS)
+        * NEIGHBOURHOOD_SPACINGS;
+    template
+        .anchors()
+        .iter()
+        .enumerate()
+        .map(|(a, &anchor)| {
+            let near: Vec<Vec<BallMoment>> = voxels
+                .skin()
+                .iter()
+                .filter(|s| (0..3).all(|k| (i32::from(s[k]) - i32::from(anchor[k])).abs() <= reach))
+                .map(|&s| CentroidDescriptor::describe(voxels.solid(), s, balls, options.backend))
+                .collect();
+            let here = CentroidDescriptor::describe(voxels.solid(), anchor, balls, options.backend);
+            balls
+                .iter()
+                .enumerate()
+                .map(|(layer, ball)| {
+                    let r = ball.radius();
+                    let read: Vec<BallMoment> = phases.iter().map(|p| p[a][layer]).collect();
+                    let n = read.len() as f64;
+                    let fraction = read.iter().map(|m| m.fraction()).sum::<f64>() / n;
+                    let offsets: Vec<f64> = read.iter().map(|m| m.offset(r)).collect();
+                    let offset = offsets.iter().sum::<f64>() / n;
+                    let spread = offsets
+                        .iter()
+                        .fold(0.0f64, |w, o| w.max((o - offset).abs()));
+                    let centre = here[layer].offset(r);
+                    let moved = near
+                        .iter()
+                        .fold(0.0f64, |w, m| w.max((m[layer].offset(r) - centre).abs()));
+                    CentroidTemplate {
+                        fraction,
+                        offset,
+                        tolerance: BASE_TOLERANCE + spread + moved,
+                    }
+                })
+                .collect()
+        })
+        .collect()
 }
 
 fn read_at_anchors(
@@ -87,6 +183,7 @@ fn read_at_anchors(
                 })
                 .collect()
         }),
+        centroid: None,
     }
 }
 
