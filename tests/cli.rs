@@ -64,7 +64,6 @@ fn match_prints_the_json_contract() {
         );
     }
     assert_eq!(stages[0]["descriptor"], "volume");
-    assert!(stages.iter().any(|s| s["descriptor"] == "centroid"));
     assert_eq!(stages[stages.len() - 1]["descriptor"], "harmonics");
     // The scene's 512, or finer where the template is small.
     assert!(v["grid"]["resolution"].as_u64().unwrap() >= 512);
@@ -404,7 +403,12 @@ fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     }
     assert!(!gpu["gpu"]["adapter"].as_str().unwrap().is_empty());
     assert!(gpu["gpu"]["fallback"].is_null());
-    assert_eq!(cpu["stages"].as_array().unwrap().len(), 18);
+    let harmonics = cpu["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["descriptor"] == "harmonics");
+    assert_eq!(harmonics.count(), 6);
     let positions = |v: &serde_json::Value| -> Vec<serde_json::Value> {
         v["instances"]
             .as_array()

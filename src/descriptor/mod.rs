@@ -81,12 +81,13 @@ pub trait OnionDescriptor: Sync {
     fn threshold(&self) -> f64;
 
     /// The order in which the cascade computes the layers for the candidates,
-    /// each layer once. Innermost first by default, the paper's order: inner
+    /// each layer at most once. Innermost first by default, the paper's order: inner
     /// layers are the cheap ones when the cost grows with the radius, and an
     /// incremental descriptor needs it. A descriptor whose layers all cost
     /// the same may put the most selective first (and may look at a sample
     /// of the candidates to find it), as long as its distance stays a lower
-    /// bound that the last layer makes exact.
+    /// bound that the last layer makes exact. A descriptor that only
+    /// filters for a later stage (the centroid) may leave layers out.
     fn order(&self, _candidates: &[u32], _backend: Threads) -> Vec<usize> {
         (0..self.layers()).collect()
     }
