@@ -30,10 +30,9 @@
 //! on every shared and generated scene compared (see docs/CHANGELOG.md).
 //! It runs only where both the volume and the harmonics are searched.
 
-use super::volume::BLOCKS_PER_RADIUS;
 use super::{Anchors, ClutterPolicy, MAX_ANCHORS, OnionDescriptor, all_anchors};
 use crate::exec::Threads;
-use crate::voxel::{Ball, BallMoment, Solid, level_for_radius};
+use crate::voxel::{Ball, BallMoment, Solid};
 
 /// The offset a turned copy may differ by beyond what the template's
 /// neighbourhood and phases account for: the staircase of a face at an
@@ -78,14 +77,16 @@ pub struct CentroidState {
 }
 
 impl<'a> CentroidDescriptor<'a> {
-    /// The balls for `radii` (world units) on voxels of `voxel_size`: read
-    /// from level 1 at least, where the pyramid's moments are.
-    pub fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
-        radii
+    /// The balls of the volume stage's `volume` balls, shared where they
+    /// are read from level 1 or above (the same runs: building the tables
+    /// again cost a real scene's template a third more time), and made at
+    /// level 1 where they are read from the bit grid.
+    pub fn balls_like(volume: &[Ball], backend: Threads) -> Vec<Ball> {
+        volume
             .iter()
-            .map(|r| {
-                let rv = r / voxel_size;
-                Ball::build(rv, level_for_radius(rv, BLOCKS_PER_RADIUS).max(1), backend)
+            .map(|b| match b.level() {
+                0 => Ball::build(b.radius(), 1, backend),
+                _ => b.clone(),
             })
             .collect()
     }
@@ -248,6 +249,13 @@ mod tests {
     use crate::mesh::shapes::cuboid;
     use crate::voxel::{GridSpec, voxelize};
 
+    /// The stage's balls for `radii` on voxels of `voxel_size`, as a search
+    /// makes them.
+    fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
+        let volume = crate::descriptor::VolumeDescriptor::unbound_balls(radii, voxel_size, backend);
+        CentroidDescriptor::balls_like(&volume, backend)
+    }
+
     /// A voxel on the top face of a large slab, away from its edges.
     fn slab_top(n: u32) -> (Solid, [u16; 3], GridSpec) {
         let slab = cuboid(Vec3::new(-4.0, -4.0, -1.0), Vec3::new(4.0, 4.0, 0.0));
@@ -269,7 +277,7 @@ mod tests {
         let (solid, v, spec) = slab_top(256);
         for r in [0.2, 0.4, 0.8] {
             let rv = r / spec.voxel_size;
-            let balls = CentroidDescriptor::unbound_balls(&[r], spec.voxel_size, Threads::Serial);
+            let balls = unbound_balls(&[r], spec.voxel_size, Threads::Serial);
             let m = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial)[0];
             // The surface layer of voxels, counted solid, lifts the
             // fraction and shifts the centroid by about a voxel's share.
@@ -291,8 +299,7 @@ mod tests {
     #[test]
     fn moments_match_a_brute_force_sum_over_the_blocks() {
         let (solid, v, spec) = slab_top(128);
-        let balls =
-            CentroidDescriptor::unbound_balls(&[0.7, 1.9], spec.voxel_size, Threads::Serial);
+        let balls = unbound_balls(&[0.7, 1.9], spec.voxel_size, Threads::Serial);
         for (ball, got) in balls.iter().zip(CentroidDescriptor::describe(
             &solid,
             v,
@@ -318,7 +325,7 @@ mod tests {
     #[test]
     fn added_material_moves_the_offset_by_at_most_the_fraction_added() {
         let (solid, v, spec) = slab_top(128);
-        let balls = CentroidDescriptor::unbound_balls(&[0.6], spec.voxel_size, Threads::Serial);
+        let balls = unbound_balls(&[0.6], spec.voxel_size, Threads::Serial);
         let clean = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial)[0];
         // A wall standing on the slab beside the point.
         let mut bits = solid.bits().clone();
@@ -354,7 +361,7 @@ mod tests {
             points.len()
         );
         let radii = [0.2, 0.4, 0.6];
-        let balls = CentroidDescriptor::unbound_balls(&radii, spec.voxel_size, Threads::Serial);
+        let balls = unbound_balls(&radii, spec.voxel_size, Threads::Serial);
         let read = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial);
         let template = |shift: f64| -> Vec<CentroidTemplate> {
             read.iter()

@@ -79,8 +79,7 @@ impl<'a> PartSearch<'a> {
         // The balls' tables are built once: read at the template's one
         // point, then bound to each part's layout.
         let balls = VolumeDescriptor::unbound_balls(template.radii(), voxel, options.backend);
-        let centroid_balls =
-            CentroidDescriptor::unbound_balls(template.radii(), voxel, options.backend);
+        let centroid_balls = CentroidDescriptor::balls_like(&balls, options.backend);
         let Signatures {
             volume: template_volume,
             harmonics: template_harmonics,
