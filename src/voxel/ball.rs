@@ -346,28 +346,15 @@ impl Ball {
         let level = solid.level(self.level, Threads::Serial);
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
-        let d = level.dims().map(|x| x as i64);
         let (mut n, mut m) = (0i64, [0i64; 3]);
-        for sp in &phase.spans {
-            let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
-            if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
-                continue;
-            }
-            let (x0, x1) = (
-                (c[0] + sp.x0 as i64).max(0),
-                (c[0] + sp.x1 as i64).min(d[0] - 1),
-            );
-            if x0 > x1 {
-                continue;
-            }
-            let row = level.row_start(y as usize, z as usize);
-            let (count, along_x) = level.run_moment(row, x0 as usize, x1 as usize, c[0]);
+        for_each_clipped_run(level, phase, c, |row, x0, x1, sp| {
+            let (count, along_x) = level.run_moment(row, x0, x1, c[0]);
             let count = i64::from(count);
             n += count;
             m[0] += along_x;
             m[1] += count * sp.dy as i64;
             m[2] += count * sp.dz as i64;
-        }
+        });
         // From the centre block's centre to the voxel's, in voxels.
         let s = (1i64 << self.level) as f64;
         let offset = v.map(|x| (x as i64 & ((1 << self.level) - 1)) as f64 - (s - 1.0) / 2.0);
@@ -444,8 +431,23 @@ impl BallMoment {
 /// Solid voxels in the runs of `phase` around block `c` of `level`, run by
 /// run (runs outside the grid count as empty).
 fn count_runs(level: &CountLevel, phase: &Phase, c: [i64; 3]) -> u64 {
-    let d = level.dims().map(|x| x as i64);
     let mut total = 0u64;
+    for_each_clipped_run(level, phase, c, |row, x0, x1, _| {
+        total += u64::from(level.run(row, x0, x1));
+    });
+    total
+}
+
+/// Calls `visit(row start, x0, x1, run)` for each run of `phase` around
+/// block `c`, cut to the blocks of `level` (runs wholly outside skipped).
+#[inline]
+fn for_each_clipped_run(
+    level: &CountLevel,
+    phase: &Phase,
+    c: [i64; 3],
+    mut visit: impl FnMut(usize, usize, usize, &Span),
+) {
+    let d = level.dims().map(|x| x as i64);
     for sp in &phase.spans {
         let (y, z) = (c[1] + sp.dy as i64, c[2] + sp.dz as i64);
         if y < 0 || z < 0 || y >= d[1] || z >= d[2] {
@@ -456,14 +458,10 @@ fn count_runs(level: &CountLevel, phase: &Phase, c: [i64; 3]) -> u64 {
             (c[0] + sp.x1 as i64).min(d[0] - 1),
         );
         if x0 <= x1 {
-            total += level.run(
-                level.row_start(y as usize, z as usize),
-                x0 as usize,
-                x1 as usize,
-            ) as u64;
+            let row = level.row_start(y as usize, z as usize);
+            visit(row, x0 as usize, x1 as usize, sp);
         }
     }
-    total
 }
 
 /// Set voxels of the bit grid in the runs around voxel `v`.
