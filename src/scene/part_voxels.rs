@@ -1,6 +1,8 @@
 //! A part's voxels for one search: its solid with the count pyramid, its
 //! skin voxels (the candidates) and the voxels near its surface.
 
+use std::sync::OnceLock;
+
 use crate::clock::now_ms;
 use crate::exec::Threads;
 use crate::math::Vec3;
@@ -11,7 +13,13 @@ use crate::voxel::{Grid, GridSpec, Solid, WindowedMesh, dilate, skin, voxelize};
 pub struct PartVoxels {
     solid: Solid,
     skin: Vec<[u16; 3]>,
-    near_surface: Grid,
+    /// The skin as a bit grid, kept to grow `near_surface` from.
+    skin_grid: Grid,
+    /// Grown only where a survivor is verified: on a building of distinct
+    /// parts most parts have none, and growing every part's skin was a
+    /// tenth of the search.
+    near_surface: OnceLock<Grid>,
+    backend: Threads,
     pub(super) voxelize_ms: f64,
 }
 
@@ -38,7 +46,6 @@ impl PartVoxels {
 
     fn from_solid(grid: Grid, start: f64, backend: Threads) -> PartVoxels {
         let skin_grid = skin(&grid, backend);
-        let near_surface = dilate(&skin_grid, backend);
         // Sized exactly: a messy part's skin can run to tens of millions of
         // voxels, and doubling would take twice that.
         let mut skin = Vec::with_capacity(skin_grid.count_ones() as usize);
@@ -46,7 +53,9 @@ impl PartVoxels {
         PartVoxels {
             solid: Solid::new(grid),
             skin,
-            near_surface,
+            skin_grid,
+            near_surface: OnceLock::new(),
+            backend,
             voxelize_ms: now_ms() - start,
         }
     }
@@ -68,7 +77,8 @@ impl PartVoxels {
 
     /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
     pub fn near_surface(&self) -> &Grid {
-        &self.near_surface
+        self.near_surface
+            .get_or_init(|| dilate(&self.skin_grid, self.backend))
     }
 
     /// How long voxelizing took, in milliseconds.
