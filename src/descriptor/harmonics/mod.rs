@@ -46,8 +46,8 @@ pub use transform::SphericalTransform;
 #[cfg(any(feature = "gpu", feature = "internals"))]
 pub use transform::unfolded_tables;
 
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 use super::batch::BatchFailure;
 use super::{LayerBatch, LocalFuture};
@@ -131,7 +131,10 @@ pub struct HarmonicsDescriptor<'a> {
     solid: &'a Solid,
     points: &'a [[u16; 3]],
     transform: &'a SphericalTransform,
-    spheres: Vec<SphereSampler>,
+    /// Made when the first point reaches the stage: making them builds the
+    /// pyramid levels they read, which most parts of a building never need.
+    spheres: OnceLock<Vec<SphereSampler>>,
+    backend: Threads,
     radii: Vec<f64>,
     /// (R_j / voxel)^2 / k: see the module doc.
     weights: Vec<f64>,
@@ -170,10 +173,8 @@ impl<'a> HarmonicsDescriptor<'a> {
             solid,
             points,
             transform,
-            spheres: radii
-                .iter()
-                .map(|r| SphereSampler::new(r / voxel, solid, backend))
-                .collect(),
+            spheres: OnceLock::new(),
+            backend,
             radii: radii.to_vec(),
             weights: layer_weights(radii, voxel),
             clutter: None,
@@ -184,6 +185,17 @@ impl<'a> HarmonicsDescriptor<'a> {
             batch_error: AtomicU64::new(0),
             done: Mutex::new(Vec::new()),
         }
+    }
+
+    /// The sphere samplers, one per layer, made on first use.
+    fn spheres(&self) -> &[SphereSampler] {
+        self.spheres.get_or_init(|| {
+            let voxel = self.solid.bits().spec().voxel_size;
+            self.radii
+                .iter()
+                .map(|r| SphereSampler::new(r / voxel, self.solid, self.backend))
+                .collect()
+        })
     }
 
     /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
@@ -218,7 +230,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             // Degree 0 of the signature is the sphere's mean occupancy.
             let clean = ball_clean(a) && {
                 let s = sig.get_or_insert_with(|| {
-                    describe_sphere(self.solid, v, &self.spheres[layer], self.transform)
+                    describe_sphere(self.solid, v, &self.spheres()[layer], self.transform)
                 });
                 match guard {
                     None => true,
@@ -245,7 +257,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             // weights carry 1 / k). The spheres inside it still to come
             // only add to the sum.
             let budget = match state.excused_at[a] {
-                Some(e) => self.threshold.powi(2) * f64::from(e) / self.spheres.len() as f64,
+                Some(e) => self.threshold.powi(2) * f64::from(e) / self.radii.len() as f64,
                 None => self.threshold.powi(2),
             };
             let slack = state.slack2[a].sqrt();
@@ -349,7 +361,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
     }
 
     fn layers(&self) -> usize {
-        self.spheres.len()
+        self.radii.len()
     }
 
     fn radius(&self, layer: usize) -> f64 {
@@ -365,10 +377,11 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
     /// list (an excused sphere passes): about 130 spheres to save thousands
     /// where the scene favours the other lead. Only speed depends on it.
     fn order(&self, candidates: &[u32], backend: Threads) -> Vec<usize> {
-        let (clean, k) = (
-            self.clean_layers.min(self.spheres.len()),
-            self.spheres.len(),
-        );
+        if !candidates.is_empty() {
+            // Made here, before the layers share them out to threads.
+            self.spheres();
+        }
+        let (clean, k) = (self.clean_layers.min(self.radii.len()), self.radii.len());
         let excusable_first =
             (1..k).contains(&clean) && candidates.len() >= ORDER_MIN_CANDIDATES && {
                 let sample: Vec<u32> = candidates
@@ -417,7 +430,9 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                 Ordering::Relaxed,
             );
             let voxels = self.batch.voxels_to_compute(points, self.points)?;
-            let signatures = batch.sphere_signatures(&self.spheres[layer], &voxels).await;
+            let signatures = batch
+                .sphere_signatures(&self.spheres()[layer], &voxels)
+                .await;
             self.batch.accept(signatures, points.len())
         })
     }
