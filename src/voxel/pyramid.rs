@@ -103,6 +103,10 @@ impl CountLevel {
             dims[0],
             |r, out| {
                 let sums = &self.prefix[r * stride..(r + 1) * stride];
+                if sums[stride - 1] == 0 {
+                    // Left zero: see [`CountLevel::build`].
+                    return;
+                }
                 for x in 0..out.len() {
                     out[x] = (((sums[x + 1] - sums[x]) * 255 + half) >> shift) as u8;
                 }
@@ -135,17 +139,25 @@ impl CountLevel {
         self.run(r, x, x)
     }
 
-    /// A level whose block counts `count(row, out)` writes row by row.
+    /// A level whose block counts `count(row, out)` writes row by row;
+    /// a row `empty(row)` says has no solid is left as allocated (zero).
+    /// A part's grid is padded by the template's radius on every side, so
+    /// most of its rows are empty: writing them, zeros and running sums,
+    /// was most of the work.
     fn build(
         level: u32,
         dims: [usize; 3],
         backend: Threads,
+        empty: impl Fn(usize) -> bool + Sync + Send,
         count: impl Fn(usize, &mut [u32]) + Sync + Send,
     ) -> CountLevel {
         let stride = dims[0] + 1;
         let mut prefix = vec![0u32; stride * dims[1] * dims[2]];
         // Counts go to entries 1.., then become running sums in place.
         backend.for_each_row(&mut prefix, stride, |r, row| {
+            if empty(r) {
+                return;
+            }
             // Fresh zeroed memory is first touched by a write: a read first
             // maps the shared zero page and the write then faults again.
             row.fill(0);
@@ -174,13 +186,17 @@ impl CountLevel {
         let dims = [nx.div_ceil(2), ny.div_ceil(2), nz.div_ceil(2)];
         let wpr = grid.words_per_row();
         let words = grid.words();
-        CountLevel::build(1, dims, backend, |r, out| {
+        let rows_of = |r: usize| {
             let (y, z) = (r % dims[1], r / dims[1]);
-            let rows: Vec<usize> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+            [(0, 0), (1, 0), (0, 1), (1, 1)]
                 .into_iter()
-                .filter(|&(dy, dz)| 2 * y + dy < ny && 2 * z + dz < nz)
-                .map(|(dy, dz)| grid.row_start(2 * y + dy, 2 * z + dz))
-                .collect();
+                .filter(move |&(dy, dz)| 2 * y + dy < ny && 2 * z + dz < nz)
+                .map(move |(dy, dz)| grid.row_start(2 * y + dy, 2 * z + dz))
+        };
+        let empty =
+            |r: usize| rows_of(r).all(|start| words[start..start + wpr].iter().all(|&w| w == 0));
+        CountLevel::build(1, dims, backend, empty, |r, out| {
+            let rows: Vec<usize> = rows_of(r).collect();
             for k in 0..wpr {
                 let (mut even, mut odd) = (0u64, 0u64);
                 for &start in &rows {
@@ -209,7 +225,17 @@ impl CountLevel {
     fn next(&self, backend: Threads) -> CountLevel {
         let d = self.dims;
         let dims = [d[0].div_ceil(2), d[1].div_ceil(2), d[2].div_ceil(2)];
-        CountLevel::build(self.level + 1, dims, backend, |r, out| {
+        // The four source rows, each empty when its running sum ends at 0.
+        let sources = |r: usize| {
+            let (y, z) = (r % dims[1], r / dims[1]);
+            [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .into_iter()
+                .map(move |(dy, dz)| (2 * y + dy, 2 * z + dz))
+                .filter(|&(yy, zz)| yy < d[1] && zz < d[2])
+        };
+        let empty =
+            |r: usize| sources(r).all(|(yy, zz)| self.prefix[self.row_start(yy, zz) + d[0]] == 0);
+        CountLevel::build(self.level + 1, dims, backend, empty, |r, out| {
             let (y, z) = (r % dims[1], r / dims[1]);
             for (dy, dz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                 let (yy, zz) = (2 * y + dy, 2 * z + dz);

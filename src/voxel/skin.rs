@@ -45,6 +45,11 @@ pub fn skin(solid: &Grid, backend: Threads) -> Grid {
         }
         let (y, z) = (r % ny, r / ny);
         let cur = row(y, z);
+        if cur.iter().all(|&w| w == 0) {
+            // Left as allocated: most rows of a padded part's grid are
+            // empty, and writing their zeros was most of the work.
+            return;
+        }
         let ym = if y > 0 { row(y - 1, z) } else { &empty_row };
         let yp = if y + 1 < ny {
             row(y + 1, z)
