@@ -369,6 +369,47 @@ mod tests {
     }
 
     #[test]
+    fn a_subset_is_numbered_in_first_use_order_through_the_table_or_the_map() {
+        // A torus of 2 400 vertices: two triangles take the hash map, a
+        // third of the triangles the table. Both number the vertices in the
+        // order the triangles first use them.
+        let torus = crate::mesh::shapes::torus(Vec3::ZERO, 1.0, 0.3, 60, 40);
+        let expected = |picked: &[u32]| {
+            let mut order: Vec<u32> = Vec::new();
+            let triangles: Vec<[u32; 3]> = picked
+                .iter()
+                .map(|&t| {
+                    torus.triangles()[t as usize].map(|i| {
+                        let at = order.iter().position(|&o| o == i).unwrap_or_else(|| {
+                            order.push(i);
+                            order.len() - 1
+                        });
+                        at as u32
+                    })
+                })
+                .collect();
+            let positions: Vec<[f32; 3]> = order
+                .iter()
+                .map(|&i| torus.positions()[i as usize])
+                .collect();
+            (positions, triangles)
+        };
+        let few = [4000u32, 17];
+        let many: Vec<u32> = (0..torus.triangles().len() as u32)
+            .step_by(3)
+            .rev()
+            .collect();
+        assert!(few.len() * 3 * SPARSE_SUBSET < torus.positions().len());
+        assert!(many.len() * 3 * SPARSE_SUBSET >= torus.positions().len());
+        for picked in [&few[..], &many[..]] {
+            let sub = torus.subset(picked);
+            let (positions, triangles) = expected(picked);
+            assert_eq!(sub.positions(), &positions[..]);
+            assert_eq!(sub.triangles(), &triangles[..]);
+        }
+    }
+
+    #[test]
     fn bounds_are_the_used_vertices_box_through_every_way_a_mesh_is_made() {
         // Vertex 4 is used by no triangle, vertex 3 by a degenerate one
         // only: neither is in the box.
