@@ -153,6 +153,9 @@ impl<D: OnionDescriptor> Stage for D {
             for layer in order {
                 let start = begun;
                 let entered = live.len();
+                if entered > 0 {
+                    self.ready_layer(layer);
+                }
                 let given = match batch {
                     Some(batch) => {
                         let points: Vec<u32> = live.iter().map(|&(p, ..)| p).collect();

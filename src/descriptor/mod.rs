@@ -92,6 +92,13 @@ pub trait OnionDescriptor: Sync {
         (0..self.layers()).collect()
     }
 
+    /// Makes what layer `layer` reads and builds on first use (the
+    /// harmonics' sphere sampler and the pyramid level under it). The
+    /// cascade calls it before it shares the layer's points out to
+    /// threads, and only when some point is left to it: on a building of
+    /// distinct parts most parts reach few layers of the last stage.
+    fn ready_layer(&self, _layer: usize) {}
+
     /// Fresh state for scene point `point`, which still matches the
     /// template's `anchors` (see [`crate::cascade`]).
     fn start(&self, point: u32, anchors: Anchors) -> Self::State;

@@ -131,9 +131,11 @@ pub struct HarmonicsDescriptor<'a> {
     solid: &'a Solid,
     points: &'a [[u16; 3]],
     transform: &'a SphericalTransform,
-    /// Made when the first point reaches the stage: making them builds the
-    /// pyramid levels they read, which most parts of a building never need.
-    spheres: OnceLock<Vec<SphereSampler>>,
+    /// One per layer, made when the first point reaches the layer (see
+    /// [`OnionDescriptor::ready_layer`]): making one builds the pyramid
+    /// level and occupancy it reads, which most parts of a building of
+    /// distinct parts never need.
+    spheres: Vec<OnceLock<SphereSampler>>,
     backend: Threads,
     radii: Vec<f64>,
     /// (R_j / voxel)^2 / k: see the module doc.
@@ -173,7 +175,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             solid,
             points,
             transform,
-            spheres: OnceLock::new(),
+            spheres: radii.iter().map(|_| OnceLock::new()).collect(),
             backend,
             radii: radii.to_vec(),
             weights: layer_weights(radii, voxel),
@@ -187,15 +189,16 @@ impl<'a> HarmonicsDescriptor<'a> {
         }
     }
 
-    /// The sphere samplers, one per layer, made on first use.
-    fn spheres(&self) -> &[SphereSampler] {
-        self.spheres.get_or_init(|| {
-            let voxel = self.solid.bits().spec().voxel_size;
-            self.radii
-                .iter()
-                .map(|r| SphereSampler::new(r / voxel, self.solid, self.backend))
-                .collect()
-        })
+    /// The sphere sampler of `layer`, made on first use. Made outside the
+    /// lock, as the pyramid's levels are: a thread waiting for it inside a
+    /// parallel loop could be handed that loop's own work.
+    fn sphere(&self, layer: usize) -> &SphereSampler {
+        if let Some(sphere) = self.spheres[layer].get() {
+            return sphere;
+        }
+        let voxel = self.solid.bits().spec().voxel_size;
+        let made = SphereSampler::new(self.radii[layer] / voxel, self.solid, self.backend);
+        self.spheres[layer].get_or_init(|| made)
     }
 
     /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
@@ -230,7 +233,7 @@ impl<'a> HarmonicsDescriptor<'a> {
             // Degree 0 of the signature is the sphere's mean occupancy.
             let clean = ball_clean(a) && {
                 let s = sig.get_or_insert_with(|| {
-                    describe_sphere(self.solid, v, &self.spheres()[layer], self.transform)
+                    describe_sphere(self.solid, v, self.sphere(layer), self.transform)
                 });
                 match guard {
                     None => true,
@@ -372,18 +375,21 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
         self.threshold
     }
 
+    fn ready_layer(&self, layer: usize) {
+        self.sphere(layer);
+    }
+
     /// The selective order ([`ClutterPolicy::selective_order`]) with the
     /// lead that passes fewer of [`ORDER_SAMPLE`] candidates spread over the
     /// list (an excused sphere passes): about 130 spheres to save thousands
     /// where the scene favours the other lead. Only speed depends on it.
     fn order(&self, candidates: &[u32], backend: Threads) -> Vec<usize> {
-        if !candidates.is_empty() {
-            // Made here, before the layers share them out to threads.
-            self.spheres();
-        }
         let (clean, k) = (self.clean_layers.min(self.radii.len()), self.radii.len());
         let excusable_first =
             (1..k).contains(&clean) && candidates.len() >= ORDER_MIN_CANDIDATES && {
+                // Made here, before the sample is shared out to threads.
+                self.ready_layer(clean - 1);
+                self.ready_layer(clean);
                 let sample: Vec<u32> = candidates
                     .iter()
                     .step_by((candidates.len() / ORDER_SAMPLE).max(1))
@@ -430,9 +436,7 @@ impl OnionDescriptor for HarmonicsDescriptor<'_> {
                 Ordering::Relaxed,
             );
             let voxels = self.batch.voxels_to_compute(points, self.points)?;
-            let signatures = batch
-                .sphere_signatures(&self.spheres()[layer], &voxels)
-                .await;
+            let signatures = batch.sphere_signatures(self.sphere(layer), &voxels).await;
             self.batch.accept(signatures, points.len())
         })
     }

@@ -259,11 +259,11 @@ fn innermost_first(
     v: [u16; 3],
     clean: usize,
 ) -> (Option<f64>, bool) {
-    let k = h.spheres().len();
+    let k = h.radii.len();
     let threshold2 = h.threshold * h.threshold;
     let mut sum2 = 0.0;
     for j in 0..k {
-        let sig = describe_sphere(h.solid, v, &h.spheres()[j], h.transform);
+        let sig = describe_sphere(h.solid, v, h.sphere(j), h.transform);
         let cluttered = j >= clean
             && (guard.balls[j].fraction(h.solid, v) - guard.templates[0][j]
                 > guard.policy.volume_tolerance
