@@ -9,6 +9,19 @@
 //! searches.
 
 use std::ops::Range;
+use std::sync::OnceLock;
+
+/// The value in `cell`, made by `make` if it is empty. Made outside the
+/// cell's lock: a thread waiting on the lock inside a parallel loop could
+/// be handed that loop's own work and so wait on itself. Two threads may
+/// both make it; one value is kept.
+pub fn made_once<T>(cell: &OnceLock<T>, make: impl FnOnce() -> T) -> &T {
+    if let Some(value) = cell.get() {
+        return value;
+    }
+    let made = make();
+    cell.get_or_init(|| made)
+}
 
 /// How data-parallel work runs on the CPU's threads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 use std::sync::OnceLock;
 
 use crate::clock::now_ms;
-use crate::exec::Threads;
+use crate::exec::{Threads, made_once};
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::voxel::{Grid, GridSpec, Solid, WindowedMesh, dilate, skin, voxelize};
@@ -77,8 +77,8 @@ impl PartVoxels {
 
     /// Voxels within one voxel (26-neighbourhood) of a skin voxel.
     pub fn near_surface(&self) -> &Grid {
-        self.near_surface
-            .get_or_init(|| dilate(&self.skin_grid, self.backend))
+        // Asked for inside the verifier's parallel loops: see [`made_once`].
+        made_once(&self.near_surface, || dilate(&self.skin_grid, self.backend))
     }
 
     /// How long voxelizing took, in milliseconds.

@@ -15,7 +15,7 @@
 use std::sync::OnceLock;
 
 use super::grid::Grid;
-use crate::exec::Threads;
+use crate::exec::{Threads, made_once};
 
 /// Levels 1..=MAX_LEVEL can be built (level 0 is the bit grid itself).
 pub const MAX_LEVEL: u32 = 5;
@@ -88,13 +88,13 @@ impl CountLevel {
         self.occupancy_with(Threads::Serial)
     }
 
-    /// [`CountLevel::occupancy`], made with `backend` if needed. Made
-    /// outside the lock, as levels are: a thread that waited for it inside
-    /// a parallel loop could be handed that loop's own work.
+    /// [`CountLevel::occupancy`], made with `backend` if needed (see
+    /// [`made_once`]).
     pub fn occupancy_with(&self, backend: Threads) -> &[u8] {
-        if let Some(o) = self.occupancy.get() {
-            return o;
-        }
+        made_once(&self.occupancy, || self.make_occupancy(backend)).as_slice()
+    }
+
+    fn make_occupancy(&self, backend: Threads) -> Vec<u8> {
         let (dims, stride) = (self.dims, self.stride);
         let (shift, half) = (3 * self.level, 1u32 << (3 * self.level - 1));
         let mut occupancy = vec![0u8; dims[0] * dims[1] * dims[2] + 1];
@@ -112,7 +112,7 @@ impl CountLevel {
                 }
             },
         );
-        self.occupancy.get_or_init(|| occupancy)
+        occupancy
     }
 
     /// Solid voxels in blocks `x0..=x1` of the row starting at `row`, and
@@ -225,24 +225,19 @@ impl CountLevel {
     fn next(&self, backend: Threads) -> CountLevel {
         let d = self.dims;
         let dims = [d[0].div_ceil(2), d[1].div_ceil(2), d[2].div_ceil(2)];
-        // The four source rows, each empty when its running sum ends at 0.
+        // The starts of the source rows (four, fewer at the far sides).
         let sources = |r: usize| {
             let (y, z) = (r % dims[1], r / dims[1]);
             [(0, 0), (1, 0), (0, 1), (1, 1)]
                 .into_iter()
                 .map(move |(dy, dz)| (2 * y + dy, 2 * z + dz))
                 .filter(|&(yy, zz)| yy < d[1] && zz < d[2])
+                .map(|(yy, zz)| self.row_start(yy, zz))
         };
-        let empty =
-            |r: usize| sources(r).all(|(yy, zz)| self.prefix[self.row_start(yy, zz) + d[0]] == 0);
+        // A source row is empty when its running sum ends at 0.
+        let empty = |r: usize| sources(r).all(|row| self.prefix[row + d[0]] == 0);
         CountLevel::build(self.level + 1, dims, backend, empty, |r, out| {
-            let (y, z) = (r % dims[1], r / dims[1]);
-            for (dy, dz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (yy, zz) = (2 * y + dy, 2 * z + dz);
-                if yy >= d[1] || zz >= d[2] {
-                    continue;
-                }
-                let row = self.row_start(yy, zz);
+            for row in sources(r) {
                 for (x, o) in out.iter_mut().enumerate() {
                     *o += self.run(row, 2 * x, (2 * x + 1).min(d[0] - 1));
                 }
@@ -277,16 +272,13 @@ impl Solid {
             (1..=MAX_LEVEL).contains(&level),
             "pyramid level {level} out of range"
         );
-        let i = level as usize - 1;
-        if let Some(l) = self.levels[i].get() {
-            return l;
-        }
-        let built = if level == 1 {
-            CountLevel::first(&self.bits, backend)
-        } else {
-            self.level(level - 1, backend).next(backend)
-        };
-        self.levels[i].get_or_init(|| built)
+        made_once(&self.levels[level as usize - 1], || {
+            if level == 1 {
+                CountLevel::first(&self.bits, backend)
+            } else {
+                self.level(level - 1, backend).next(backend)
+            }
+        })
     }
 }
 

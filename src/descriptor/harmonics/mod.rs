@@ -54,7 +54,7 @@ use super::{LayerBatch, LocalFuture};
 
 use super::volume::closest;
 use super::{Anchors, MAX_ANCHORS, all_anchors};
-use crate::exec::Threads;
+use crate::exec::{Threads, made_once};
 use crate::voxel::{Ball, Solid};
 
 /// Bandwidth: 2B x 2B samples per sphere.
@@ -189,16 +189,13 @@ impl<'a> HarmonicsDescriptor<'a> {
         }
     }
 
-    /// The sphere sampler of `layer`, made on first use. Made outside the
-    /// lock, as the pyramid's levels are: a thread waiting for it inside a
-    /// parallel loop could be handed that loop's own work.
+    /// The sphere sampler of `layer`, made on first use (see
+    /// [`made_once`]).
     fn sphere(&self, layer: usize) -> &SphereSampler {
-        if let Some(sphere) = self.spheres[layer].get() {
-            return sphere;
-        }
-        let voxel = self.solid.bits().spec().voxel_size;
-        let made = SphereSampler::new(self.radii[layer] / voxel, self.solid, self.backend);
-        self.spheres[layer].get_or_init(|| made)
+        made_once(&self.spheres[layer], || {
+            let voxel = self.solid.bits().spec().voxel_size;
+            SphereSampler::new(self.radii[layer] / voxel, self.solid, self.backend)
+        })
     }
 
     /// Adds sphere `layer` at voxel `v` to `state`, from the batch's
