@@ -99,7 +99,7 @@ impl<'a> CentroidDescriptor<'a> {
     }
 
     /// The stage over `points` of `solid`, with `balls` from
-    /// [`Self::unbound_balls`] and the template's readings, one list per
+    /// [`Self::balls_like`] and the template's readings, one list per
     /// anchor.
     pub fn new(
         solid: &'a Solid,
@@ -251,8 +251,8 @@ mod tests {
 
     /// The stage's balls for `radii` on voxels of `voxel_size`, as a search
     /// makes them.
-    fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
-        let volume = crate::descriptor::VolumeDescriptor::unbound_balls(radii, voxel_size, backend);
+    fn balls_at(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
+        let volume = crate::descriptor::VolumeDescriptor::balls_at(radii, voxel_size, backend);
         CentroidDescriptor::balls_like(&volume, backend)
     }
 
@@ -277,7 +277,7 @@ mod tests {
         let (solid, v, spec) = slab_top(256);
         for r in [0.2, 0.4, 0.8] {
             let rv = r / spec.voxel_size;
-            let balls = unbound_balls(&[r], spec.voxel_size, Threads::Serial);
+            let balls = balls_at(&[r], spec.voxel_size, Threads::Serial);
             let m = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial)[0];
             // The surface layer of voxels, counted solid, lifts the
             // fraction and shifts the centroid by about a voxel's share.
@@ -299,7 +299,7 @@ mod tests {
     #[test]
     fn moments_match_a_brute_force_sum_over_the_blocks() {
         let (solid, v, spec) = slab_top(128);
-        let balls = unbound_balls(&[0.7, 1.9], spec.voxel_size, Threads::Serial);
+        let balls = balls_at(&[0.7, 1.9], spec.voxel_size, Threads::Serial);
         for (ball, got) in balls.iter().zip(CentroidDescriptor::describe(
             &solid,
             v,
@@ -325,7 +325,7 @@ mod tests {
     #[test]
     fn added_material_moves_the_offset_by_at_most_the_fraction_added() {
         let (solid, v, spec) = slab_top(128);
-        let balls = unbound_balls(&[0.6], spec.voxel_size, Threads::Serial);
+        let balls = balls_at(&[0.6], spec.voxel_size, Threads::Serial);
         let clean = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial)[0];
         // A wall standing on the slab beside the point.
         let mut bits = solid.bits().clone();
@@ -361,7 +361,7 @@ mod tests {
             points.len()
         );
         let radii = [0.2, 0.4, 0.6];
-        let balls = unbound_balls(&radii, spec.voxel_size, Threads::Serial);
+        let balls = balls_at(&radii, spec.voxel_size, Threads::Serial);
         let read = CentroidDescriptor::describe(&solid, v, &balls, Threads::Serial);
         let template = |shift: f64| -> Vec<CentroidTemplate> {
             read.iter()

@@ -67,11 +67,11 @@ impl<'a> VolumeDescriptor<'a> {
         threshold: f64,
         backend: Threads,
     ) -> Self {
-        let balls = Self::bound_balls(solid, radii, backend);
+        let balls = Self::balls_for(solid, radii, backend);
         Self::with_balls(solid, points, radii, balls, templates, threshold)
     }
 
-    /// A stage from balls already bound to `solid` (one per radius).
+    /// A stage from balls made for `solid` (one per radius).
     pub fn with_balls(
         solid: &'a Solid,
         points: &'a [[u16; 3]],
@@ -104,7 +104,7 @@ impl<'a> VolumeDescriptor<'a> {
         self
     }
 
-    /// The balls, bound to this stage's solid.
+    /// The balls, one per radius.
     pub fn balls(&self) -> &[Ball] {
         &self.balls
     }
@@ -114,8 +114,9 @@ impl<'a> VolumeDescriptor<'a> {
         &self.templates
     }
 
-    /// The unbound balls for `radii` (world units) on voxels of `voxel_size`.
-    pub fn unbound_balls(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
+    /// The balls for `radii` (world units) on voxels of `voxel_size`, for
+    /// any solid.
+    pub fn balls_at(radii: &[f64], voxel_size: f64, backend: Threads) -> Vec<Ball> {
         radii
             .iter()
             .map(|r| {
@@ -126,11 +127,11 @@ impl<'a> VolumeDescriptor<'a> {
     }
 
     #[cfg(any(test, feature = "internals"))]
-    fn bound_balls(solid: &Solid, radii: &[f64], backend: Threads) -> Vec<Ball> {
+    fn balls_for(solid: &Solid, radii: &[f64], backend: Threads) -> Vec<Ball> {
         let voxel = solid.bits().spec().voxel_size;
-        Self::unbound_balls(radii, voxel, backend)
+        Self::balls_at(radii, voxel, backend)
             .into_iter()
-            .map(|b| b.bind(solid, backend))
+            .map(|b| b.for_solid(solid, backend))
             .collect()
     }
 
@@ -139,17 +140,11 @@ impl<'a> VolumeDescriptor<'a> {
     #[cfg(any(test, feature = "internals"))]
     pub fn describe(solid: &Solid, v: [u16; 3], radii: &[f64], backend: Threads) -> Vec<f64> {
         let voxel = solid.bits().spec().voxel_size;
-        Self::describe_with(
-            solid,
-            v,
-            &Self::unbound_balls(radii, voxel, backend),
-            backend,
-        )
+        Self::describe_with(solid, v, &Self::balls_at(radii, voxel, backend), backend)
     }
 
-    /// The descriptor of voxel `v` from `balls`, bound to any solid or none:
-    /// one point is read run by run (`Ball::count_once`); the levels it
-    /// reads are built with `backend`.
+    /// The descriptor of voxel `v` from `balls`; the levels it reads are
+    /// built with `backend`.
     pub fn describe_with(solid: &Solid, v: [u16; 3], balls: &[Ball], backend: Threads) -> Vec<f64> {
         balls
             .iter()
@@ -157,7 +152,7 @@ impl<'a> VolumeDescriptor<'a> {
                 if b.level() > 0 {
                     solid.level(b.level(), backend);
                 }
-                let (inside, all) = b.count_once(solid, v);
+                let (inside, all) = b.count(solid, v);
                 inside as f64 / all as f64
             })
             .collect()
@@ -346,7 +341,7 @@ mod tests {
             let got = VolumeDescriptor::describe(&solid, top, &[r], Threads::Serial)[0];
             // Counting errors shrink with the radius in counting units
             // (voxels, or blocks at coarse levels).
-            let ball = volume_ball(r / spec.voxel_size).bind(&solid, Threads::Serial);
+            let ball = volume_ball(r / spec.voxel_size).for_solid(&solid, Threads::Serial);
             let tol = 0.05 / (ball.radius() / f64::from(1u32 << ball.level()));
             assert!((got - want).abs() < tol, "r {r}: {got} vs {want}");
         }

@@ -143,7 +143,7 @@ fn gpu_ball_counts_equal_the_cpus() {
     for radius in [2.5, 7.0, 12.0, 30.0, 61.0] {
         let level = level_for_radius(radius, BLOCKS_PER_RADIUS);
         levels.push(level);
-        let ball = Ball::build(radius, level, Threads::Serial).bind(&solid, Threads::Serial);
+        let ball = Ball::build(radius, level, Threads::Serial).for_solid(&solid, Threads::Serial);
         let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
         // The default lanes for this many candidates, and one lane, a few
         // and a whole workgroup per candidate (a layer's last candidates).
@@ -174,7 +174,7 @@ fn a_balls_run_tables_are_uploaded_once_for_every_part() {
         let solid = lumpy_solid(voxel);
         let on_gpu = GpuSolid::new(&gpu, &solid);
         for ball in [&small, &large] {
-            let ball = ball.clone().bind(&solid, Threads::Serial);
+            let ball = ball.clone().for_solid(&solid, Threads::Serial);
             let voxels = skin_sample(&solid, 31, usize::MAX);
             let got = pollster::block_on(on_gpu.counts(&ball, &voxels)).unwrap();
             let want: Vec<u64> = voxels.iter().map(|&v| ball.count(&solid, v).0).collect();
@@ -201,7 +201,7 @@ fn a_queue_runs_two_solids_kernels_in_one_submission_with_the_same_results() {
         .iter()
         .map(|solid| {
             let voxels = skin_sample(solid, 17, usize::MAX);
-            (ball.clone().bind(solid, Threads::Serial), voxels)
+            (ball.clone().for_solid(solid, Threads::Serial), voxels)
         })
         .collect();
     let on_gpu: Vec<GpuSolid> = solids

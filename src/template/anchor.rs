@@ -78,7 +78,7 @@ pub(super) fn stable_anchor(
 ) -> Result<Anchor> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
-    let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
+    let balls = VolumeDescriptor::balls_at(radii, spec.voxel_size, backend);
     let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
     let turn_drift = |anchors: &[[u16; 3]], turns: &[glam::DQuat]| -> Result<Vec<f64>> {
         match model {
@@ -182,7 +182,7 @@ pub(super) fn further_anchors(
 ) -> Result<Vec<[u16; 3]>> {
     let transform = SphericalTransform::new();
     let spec = voxels.grid().spec();
-    let balls = VolumeDescriptor::unbound_balls(radii, spec.voxel_size, backend);
+    let balls = VolumeDescriptor::balls_at(radii, spec.voxel_size, backend);
     let reader = Reader::new(voxels, &balls, radii, thresholds, &transform, backend);
     let outer = radii[radii.len() - 1] / spec.voxel_size;
     let apart = FURTHER_APART * outer;

@@ -5,6 +5,8 @@
 //! moments over them, and the harmonics clutter guard reuses the volume
 //! stage's balls.
 
+use std::sync::{Arc, OnceLock};
+
 use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::voxel::{CountLevel, Grid, Solid};
@@ -19,10 +21,23 @@ struct Span {
     x1: i16,
 }
 
+/// Runs `start..end` of a phase: rows `dy, dy + 1, ...` of the slice
+/// `dz`, one run each, so that a counting loop finds each row from the
+/// last by one addition.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Slab {
+    dy: i16,
+    dz: i16,
+    start: u32,
+    end: u32,
+}
+
 /// The runs of the ball for one position of the centre inside its block.
 #[derive(Clone, Debug)]
 struct Phase {
     spans: Vec<Span>,
+    /// The runs grouped into slabs of consecutive rows.
+    slabs: Vec<Slab>,
     voxels: u64,
     /// Reach of the runs below and above the centre block, per axis.
     lo: [i64; 3],
@@ -30,6 +45,34 @@ struct Phase {
 }
 
 impl Phase {
+    fn new(spans: Vec<Span>, voxels: u64, lo: [i64; 3], hi: [i64; 3]) -> Phase {
+        let mut slabs: Vec<Slab> = Vec::new();
+        for (i, sp) in spans.iter().enumerate() {
+            match slabs.last_mut() {
+                Some(slab)
+                    if slab.dz == sp.dz
+                        && i64::from(slab.dy) + i64::from(slab.end - slab.start)
+                            == i64::from(sp.dy) =>
+                {
+                    slab.end += 1
+                }
+                _ => slabs.push(Slab {
+                    dy: sp.dy,
+                    dz: sp.dz,
+                    start: i as u32,
+                    end: i as u32 + 1,
+                }),
+            }
+        }
+        Phase {
+            spans,
+            slabs,
+            voxels,
+            lo,
+            hi,
+        }
+    }
+
     /// The runs for the centre mirrored along the axes `flip` (x, y, z)
     /// within its block, in the order [`Ball::phase`] would list them
     /// (rows by z, then y), which the exact arithmetic there reproduces
@@ -66,12 +109,12 @@ impl Phase {
             }
         }
         let (lo, hi) = (self.lo, self.hi);
-        Phase {
+        Phase::new(
             spans,
-            voxels: self.voxels,
-            lo: [0, 1, 2].map(|a| if flip[a] { -hi[a] } else { lo[a] }),
-            hi: [0, 1, 2].map(|a| if flip[a] { -lo[a] } else { hi[a] }),
-        }
+            self.voxels,
+            [0, 1, 2].map(|a| if flip[a] { -hi[a] } else { lo[a] }),
+            [0, 1, 2].map(|a| if flip[a] { -lo[a] } else { hi[a] }),
+        )
     }
 }
 
@@ -83,10 +126,50 @@ pub struct Ball {
     level: u32,
     /// One per position of the centre voxel in its block (s^3 of them),
     /// shared by clones: a search hands the same ball to every part.
-    phases: std::sync::Arc<[Phase]>,
-    /// Per phase, the runs as index pairs into one solid's running sums,
-    /// relative to the centre block's entry (see [`Ball::bind`]).
-    offsets: Option<Vec<Vec<(i64, i64)>>>,
+    phases: Arc<[Phase]>,
+    /// The runs' places in the running sums of the solid it was made for
+    /// (see [`Ball::for_solid`]); shared by clones.
+    bound: Option<Arc<BoundRuns>>,
+}
+
+/// Per phase, a ball's runs as index pairs into one level's running sums,
+/// relative to the centre block's entry: what the CPU's counting reads
+/// fastest (a third less time than finding each row as it reads). Each
+/// phase is bound when a point first reads it, so a part that few points
+/// reach pays for few.
+#[derive(Debug)]
+struct BoundRuns {
+    /// The level's blocks along y, and its stride: the layout bound to.
+    layout: [usize; 2],
+    phases: Box<[OnceLock<RunOffsets>]>,
+}
+
+/// A phase's runs as (first, one past the last) entries of the running
+/// sums, relative to the centre block's.
+type RunOffsets = Box<[(i64, i64)]>;
+
+impl BoundRuns {
+    fn new(level: &CountLevel, phases: usize) -> BoundRuns {
+        BoundRuns {
+            layout: [level.dims()[1], level.stride()],
+            phases: (0..phases).map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    /// Phase `p`'s runs, bound now if no point has read them yet.
+    fn phase(&self, p: usize, phase: &Phase) -> &[(i64, i64)] {
+        self.phases[p].get_or_init(|| {
+            let [ny, stride] = self.layout.map(|x| x as i64);
+            phase
+                .spans
+                .iter()
+                .map(|sp| {
+                    let row = (sp.dz as i64 * ny + sp.dy as i64) * stride;
+                    (row + sp.x0 as i64, row + sp.x1 as i64 + 1)
+                })
+                .collect()
+        })
+    }
 }
 
 impl Ball {
@@ -117,7 +200,7 @@ impl Ball {
             radius,
             level,
             phases: phases.into(),
-            offsets: None,
+            bound: None,
         }
     }
 
@@ -172,12 +255,7 @@ impl Ball {
                 hi[2].max(sp.dz as i64),
             ];
         }
-        Phase {
-            spans,
-            voxels: blocks * (s * s * s) as u64,
-            lo,
-            hi,
-        }
+        Phase::new(spans, blocks * (s * s * s) as u64, lo, hi)
     }
 
     /// The radius in voxels.
@@ -190,112 +268,70 @@ impl Ball {
         self.level
     }
 
-    /// Bytes its run tables hold once bound (what
+    /// Bytes its run tables hold once every phase is bound (what
     /// [`crate::voxel::ball_bytes`] estimates ahead): the runs, shared by
     /// its clones, and one solid's offsets.
     #[cfg(test)]
     pub(crate) fn table_bytes(&self) -> u64 {
         let runs: usize = self.phases.iter().map(|p| p.spans.len()).sum();
-        (runs * (size_of::<Span>() + size_of::<(i64, i64)>())) as u64
+        let slabs: usize = self.phases.iter().map(|p| p.slabs.len()).sum();
+        (runs * (size_of::<Span>() + size_of::<(i64, i64)>()) + slabs * size_of::<Slab>()) as u64
     }
 
-    /// Builds the level this ball reads in `solid` (if needed), so that
-    /// counting there never builds it. The runs fit any solid: a run's row
-    /// is found from the level's layout as it is read, so one ball serves
-    /// every part of a search (clones share the runs).
+    /// The ball for counting in `solid`: builds the level it reads (if
+    /// needed), so that counting there never builds it, and binds its runs
+    /// to the level's layout as points read them. The runs themselves fit
+    /// any solid, so one ball serves every part of a search (clones share
+    /// them).
     pub fn for_solid(self, solid: &Solid, backend: Threads) -> Ball {
-        if self.level > 0 {
-            solid.level(self.level, backend);
+        if self.level == 0 {
+            return self;
         }
+        let level = solid.level(self.level, backend);
         Ball {
-            offsets: None,
+            bound: Some(Arc::new(BoundRuns::new(level, self.phases.len()))),
             ..self
         }
     }
 
-    /// [`Ball::for_solid`], and each run's place in `solid`'s running sums
-    /// stored beside it: a copy of the runs' size for this solid alone,
-    /// which the CPU's counting reads faster than it finds each row (a
-    /// third less time on a volume layer's many candidates).
-    pub fn bind(self, solid: &Solid, backend: Threads) -> Ball {
-        let ball = self.for_solid(solid, backend);
-        if ball.level == 0 {
-            return ball;
-        }
-        let level = solid.level(ball.level, backend);
-        let (ny, stride) = (level.dims()[1] as i64, level.stride() as i64);
-        let offsets = ball
-            .phases
-            .iter()
-            .map(|phase| {
-                phase
-                    .spans
-                    .iter()
-                    .map(|sp| {
-                        let row = (sp.dz as i64 * ny + sp.dy as i64) * stride;
-                        (row + sp.x0 as i64, row + sp.x1 as i64 + 1)
-                    })
-                    .collect()
-            })
-            .collect();
-        Ball {
-            offsets: Some(offsets),
-            ..ball
-        }
-    }
-
     /// Solid voxels in the ball around voxel `v`, and the voxels the ball
-    /// covers (voxels outside the grid count as empty). The ball must be
-    /// for `solid` (bound to it, or made for it).
+    /// covers (voxels outside the grid count as empty). Builds the level
+    /// it reads on this thread if [`Ball::for_solid`] has not.
     pub fn count(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
         if self.level == 0 {
-            return (
-                count_bits(&self.phases[0].spans, solid.bits(), v),
-                self.phases[0].voxels,
-            );
+            let phase = &self.phases[0];
+            return (count_bits(phase, solid.bits(), v), phase.voxels);
         }
         let level = solid.level(self.level, Threads::Serial);
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
         let d = level.dims().map(|x| x as i64);
-        let sums = level.prefix();
         let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < d[a]);
         if !inside {
             return (count_runs(level, phase, c), phase.voxels);
         }
         // Every run lies in the grid: no test per run.
+        let sums = level.prefix();
         let base = level.row_start(c[1] as usize, c[2] as usize) as i64 + c[0];
         let mut total = 0u64;
-        match &self.offsets {
-            Some(offsets) => {
-                debug_assert_eq!(offsets[p].len(), phase.spans.len(), "bound to another ball");
-                for &(lo, hi) in &offsets[p] {
-                    total += (sums[(base + hi) as usize] - sums[(base + lo) as usize]) as u64;
+        match &self.bound {
+            Some(bound) if bound.layout == [level.dims()[1], level.stride()] => {
+                for &(lo, hi) in bound.phase(p, phase) {
+                    total += u64::from(sums[(base + hi) as usize] - sums[(base + lo) as usize]);
                 }
             }
-            None => {
+            _ => {
                 let (ny, stride) = (d[1], level.stride() as i64);
                 for sp in &phase.spans {
                     let row = base + (sp.dz as i64 * ny + sp.dy as i64) * stride;
-                    total += (sums[(row + sp.x1 as i64 + 1) as usize]
-                        - sums[(row + sp.x0 as i64) as usize]) as u64;
+                    total += u64::from(
+                        sums[(row + sp.x1 as i64 + 1) as usize]
+                            - sums[(row + sp.x0 as i64) as usize],
+                    );
                 }
             }
         }
         (total, phase.voxels)
-    }
-
-    /// Like [`Ball::count`] on a ball that need not be bound to `solid`: run
-    /// by run, for a solid read at one point (a template's descriptor),
-    /// where binding every phase would cost more than the reads.
-    pub fn count_once(&self, solid: &Solid, v: [u16; 3]) -> (u64, u64) {
-        if self.level == 0 {
-            return self.count(solid, v);
-        }
-        let level = solid.level(self.level, Threads::Serial);
-        let (p, c) = self.phase_at(v);
-        let phase = &self.phases[p];
-        (count_runs(level, phase, c), phase.voxels)
     }
 
     /// The phase of voxel `v` (level > 0), and the block holding it.
@@ -464,14 +500,29 @@ fn for_each_clipped_run(
     }
 }
 
-/// Set voxels of the bit grid in the runs around voxel `v`.
-fn count_bits(spans: &[Span], grid: &Grid, v: [u16; 3]) -> u64 {
+/// Set voxels of the bit grid in the runs of `phase` around voxel `v`.
+fn count_bits(phase: &Phase, grid: &Grid, v: [u16; 3]) -> u64 {
     let [nx, ny, nz] = grid.dims().map(|d| d as i64);
     let c = v.map(|x| x as i64);
     let words = grid.words();
-    let wpr = grid.words_per_row() as i64;
+    let wpr = grid.words_per_row();
+    let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < [nx, ny, nz][a]);
     let mut total = 0u64;
-    for s in spans {
+    if inside {
+        // No test per run, and each row of a slab one step from the last.
+        for slab in &phase.slabs {
+            let first = (c[2] + i64::from(slab.dz)) * ny + c[1] + i64::from(slab.dy);
+            let mut row = first as usize * wpr;
+            for sp in &phase.spans[slab.start as usize..slab.end as usize] {
+                let lo = (c[0] + i64::from(sp.x0)) as usize;
+                let hi = (c[0] + i64::from(sp.x1)) as usize;
+                total += u64::from(count_span(words, row, lo, hi));
+                row += wpr;
+            }
+        }
+        return total;
+    }
+    for s in &phase.spans {
         let (y, z) = (c[1] + s.dy as i64, c[2] + s.dz as i64);
         if y < 0 || z < 0 || y >= ny || z >= nz {
             continue;
@@ -483,7 +534,7 @@ fn count_bits(spans: &[Span], grid: &Grid, v: [u16; 3]) -> u64 {
         if lo <= hi {
             total += count_span(
                 words,
-                ((z * ny + y) * wpr) as usize,
+                ((z * ny + y) * wpr as i64) as usize,
                 lo as usize,
                 hi as usize,
             ) as u64;
@@ -495,12 +546,17 @@ fn count_bits(spans: &[Span], grid: &Grid, v: [u16; 3]) -> u64 {
 /// Set bits `lo..=hi` of the row starting at word `row`.
 #[inline]
 fn count_span(words: &[u64], row: usize, lo: usize, hi: usize) -> u32 {
-    let (wl, wh) = (row + (lo >> 6), row + (hi >> 6));
+    let wl = row + (lo >> 6);
+    if hi - lo < 64 {
+        // At most two words, read as one: the grid keeps a word past its
+        // last row for this.
+        let pair = u128::from(words[wl]) | (u128::from(words[wl + 1]) << 64);
+        let bits = (pair >> (lo & 63)) as u64 & (!0u64 >> (63 - (hi - lo)));
+        return bits.count_ones();
+    }
+    let wh = row + (hi >> 6);
     let lo_mask = !0u64 << (lo & 63);
     let hi_mask = !0u64 >> (63 - (hi & 63));
-    if wl == wh {
-        return (words[wl] & lo_mask & hi_mask).count_ones();
-    }
     let mut n = (words[wl] & lo_mask).count_ones() + (words[wh] & hi_mask).count_ones();
     for w in &words[wl + 1..wh] {
         n += w.count_ones();
@@ -587,8 +643,8 @@ mod tests {
             .step_by(37)
             .collect();
         for r in [13.0, 26.0, 41.0, 70.0] {
-            let coarse =
-                Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS)).bind(&solid, Threads::Serial);
+            let coarse = Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS))
+                .for_solid(&solid, Threads::Serial);
             assert!(coarse.level() > 0);
             let fine = exact(r);
             let (mut worst, mut sum) = (0.0f64, 0.0);
@@ -615,6 +671,7 @@ mod tests {
                 let i = i as i64;
                 let direct = Ball::phase(r, s, [i % s, (i / s) % s, i / (s * s)]);
                 assert_eq!(phase.spans, direct.spans, "r {r} level {level} phase {i}");
+                assert_eq!(phase.slabs, direct.slabs, "r {r} level {level} phase {i}");
                 assert_eq!(
                     (phase.voxels, phase.lo, phase.hi),
                     (direct.voxels, direct.lo, direct.hi)
@@ -623,29 +680,107 @@ mod tests {
         }
     }
 
+    /// Solid voxels in the ball's runs around `v`, voxel by voxel or
+    /// block by block, each tested against the grid.
+    fn counted_one_by_one(ball: &Ball, solid: &Solid, v: [u16; 3]) -> u64 {
+        let (p, c) = if ball.level == 0 {
+            (0, v.map(i64::from))
+        } else {
+            ball.phase_at(v)
+        };
+        let phase = &ball.phases[p];
+        if ball.level > 0 {
+            return count_runs(solid.level(ball.level, Threads::Serial), phase, c);
+        }
+        let bits = solid.bits();
+        phase
+            .spans
+            .iter()
+            .flat_map(|sp| {
+                (sp.x0..=sp.x1).map(move |x| {
+                    let at = [
+                        c[0] + i64::from(x),
+                        c[1] + i64::from(sp.dy),
+                        c[2] + i64::from(sp.dz),
+                    ];
+                    u64::from(bits.get(at[0], at[1], at[2]))
+                })
+            })
+            .sum()
+    }
+
     #[test]
-    fn counting_run_by_run_matches_both_fast_paths_inside_the_grid() {
-        // What the template's one point reads, against what every
-        // candidate reads, inside the grid and across its border.
+    fn counting_fast_matches_counting_one_by_one() {
+        // Inside the grid (the fast paths) and across its border, at every
+        // level: at level 0 runs cross word boundaries and the last word.
+        // A ball made for the solid reads its bound runs; one made for none,
+        // or for a solid of another layout, finds each row as it reads.
         let m = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
-        let spec = GridSpec::for_scene(m.bounds(), 90).unwrap();
+        let spec = GridSpec::for_scene(m.bounds(), 150).unwrap();
         let solid = Solid::new(voxelize(&m, &spec, Threads::Serial));
+        let other_spec = GridSpec::for_scene(m.bounds(), 117).unwrap();
+        let other = Solid::new(voxelize(&m, &other_spec, Threads::Serial));
         let mut points: Vec<[u16; 3]> = skin(solid.bits(), Threads::Serial)
             .iter_ones()
             .step_by(7)
             .collect();
-        points.extend([[0, 0, 0], [45, 45, 45], [2, 47, 88]]);
-        for r in [10.0, 20.0, 40.0] {
-            let unbound = Ball::at_level(r, level_for_radius(r, VOLUME_BLOCKS));
-            let bound = unbound.clone().bind(&solid, Threads::Serial);
-            // Rows found as they are read (what a part searched on the GPU
-            // counts with).
-            let unstored = unbound.clone().for_solid(&solid, Threads::Serial);
-            assert!(bound.level() > 0);
+        let far = spec.dims.map(|d| d as u16 - 1);
+        points.extend([
+            [0, 0, 0],
+            [75, 75, 75],
+            [2, 77, 148],
+            far,
+            [63, 64, 70],
+            [64, 60, 80],
+        ]);
+        let coarse = |r| (r, level_for_radius(r, VOLUME_BLOCKS));
+        for (r, level) in [
+            (3.0, 0),
+            (7.5, 0),
+            (40.0, 0),
+            coarse(10.0),
+            coarse(20.0),
+            coarse(40.0),
+        ] {
+            let made = Ball::at_level(r, level);
+            let ball = made.clone().for_solid(&solid, Threads::Serial);
+            let elsewhere = made.clone().for_solid(&other, Threads::Serial);
             for &v in &points {
-                let want = unbound.count_once(&solid, v);
-                assert_eq!(want, bound.count(&solid, v), "r {r} at {v:?}");
-                assert_eq!(want, unstored.count(&solid, v), "r {r} at {v:?}");
+                let want = counted_one_by_one(&ball, &solid, v);
+                assert_eq!(
+                    ball.count(&solid, v).0,
+                    want,
+                    "r {r} level {level} at {v:?}"
+                );
+                assert_eq!(
+                    made.count(&solid, v).0,
+                    want,
+                    "r {r} level {level} at {v:?}"
+                );
+                assert_eq!(
+                    elsewhere.count(&solid, v).0,
+                    want,
+                    "r {r} level {level} at {v:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn slabs_hold_every_run_once_in_order() {
+        for (r, level) in [(3.0, 0), (12.3, 1), (36.9, 3)] {
+            let ball = Ball::at_level(r, level);
+            for phase in ball.phases.iter() {
+                let mut next = 0;
+                for slab in &phase.slabs {
+                    assert_eq!(slab.start, next);
+                    let runs = &phase.spans[slab.start as usize..slab.end as usize];
+                    for (k, sp) in runs.iter().enumerate() {
+                        assert_eq!((sp.dz, sp.dy), (slab.dz, slab.dy + k as i16));
+                    }
+                    next = slab.end;
+                }
+                assert_eq!(next as usize, phase.spans.len());
             }
         }
     }

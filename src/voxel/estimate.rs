@@ -57,12 +57,14 @@ pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64, backend: Threads) -> f
 /// Bytes of the run tables of one digital ball of `radius` voxels read at
 /// pyramid `level`: a table per position of the centre in its block (8^level
 /// of them, an eighth more while the mirrored ones are derived), each with
-/// about pi (r/s + 1.5)^2 runs of 8 bytes plus 16 bytes of bound offsets.
+/// about pi (r/s + 1.5)^2 runs of 8 bytes plus 16 bytes of bound offsets,
+/// and a slab of 12 bytes per row of them.
 pub(crate) fn ball_bytes(radius: f64, level: u32) -> u64 {
     let s = f64::from(1u32 << level);
     let runs = std::f64::consts::PI * (radius / s + 1.5).powi(2);
     let phases = s * s * s * 1.125;
-    let bytes = phases * (24.0 * runs + 128.0);
+    let slabs = 2.0 * radius / s + 3.0;
+    let bytes = phases * (24.0 * runs + 12.0 * slabs + 128.0);
     if bytes.is_finite() && bytes < u64::MAX as f64 {
         bytes as u64
     } else {
@@ -78,7 +80,6 @@ mod tests {
 
     #[test]
     fn ball_estimates_bound_the_real_tables() {
-        // The real tables: spans of 8 bytes and offsets of 16 per run.
         for (radius, level) in [(3.0, 0), (20.0, 1), (40.0, 2), (80.0, 3), (300.0, 3)] {
             let ball = Ball::at_level(radius, level);
             let real = ball.table_bytes();

@@ -322,12 +322,12 @@ impl<'a> HarmonicsDescriptor<'a> {
 }
 
 /// What the harmonics stage needs to recognize clutter: the volume balls at
-/// its radii (bound to the scene) with the template's fractions, and the
+/// its radii with the template's fractions, and the
 /// policy.
 pub struct ClutterGuard<'a> {
     /// The policy.
     pub policy: ClutterPolicy,
-    /// Balls at the stage's radii, bound to the scene's solid.
+    /// Balls at the stage's radii, made for the scene's solid.
     pub balls: &'a [Ball],
     /// The template's solid fraction at each radius, per anchor.
     pub templates: &'a [Vec<f64>],

@@ -171,9 +171,9 @@ impl PartSearch<'_> {
         candidates
     }
 
-    /// The volume stage over `voxels`, its balls bound for the CPU or made
-    /// for the device.
-    fn volume_stage<'v>(&'v self, voxels: &'v PartVoxels, on_device: bool) -> VolumeDescriptor<'v> {
+    /// The volume stage over `voxels`, with the pyramid levels its balls
+    /// read.
+    fn volume_stage<'v>(&'v self, voxels: &'v PartVoxels) -> VolumeDescriptor<'v> {
         let backend = self.options.backend;
         VolumeDescriptor::with_balls(
             voxels.solid(),
@@ -181,12 +181,7 @@ impl PartSearch<'_> {
             self.template.radii(),
             self.balls
                 .iter()
-                .map(|b| match on_device {
-                    // The GPU counts from the runs alone, and a part of a
-                    // wave would hold a copy of them for nothing.
-                    true => b.clone().for_solid(voxels.solid(), backend),
-                    false => b.clone().bind(voxels.solid(), backend),
-                })
+                .map(|b| b.clone().for_solid(voxels.solid(), backend))
                 .collect(),
             self.template_volume.clone(),
             self.options.volume_threshold,
@@ -213,7 +208,7 @@ impl PartSearch<'_> {
             (None, Some(device)) => Some(device.batch(voxels.solid())),
             (None, None) => None,
         };
-        let volume = self.volume_stage(voxels, batch.is_some());
+        let volume = self.volume_stage(voxels);
         let harmonics = self.template_harmonics.as_ref().map(|signatures| {
             HarmonicsDescriptor::new(
                 voxels.solid(),

@@ -30,7 +30,7 @@ pub(super) struct PartSearch<'a> {
     pub(super) options: &'a MatchOptions,
     pub(super) template: VoxelTemplate,
     pub(super) lattice: Lattice,
-    /// The volume balls' tables, bound to each grid's layout.
+    /// The volume balls, shared by every part.
     pub(super) balls: Vec<Ball>,
     /// Per anchor: the template's volume and harmonics signatures.
     pub(super) template_volume: Vec<Vec<f64>>,
@@ -76,9 +76,8 @@ impl<'a> PartSearch<'a> {
         let surface = template_surface(source, scene, &template);
         let held = search_budget(scene, &template, &surface, &radii_voxels, &lattice)?;
         let transform = SphericalTransform::new();
-        // The balls' tables are built once: read at the template's one
-        // point, then bound to each part's layout.
-        let balls = VolumeDescriptor::unbound_balls(template.radii(), voxel, options.backend);
+        // The balls' tables are built once, for the template and every part.
+        let balls = VolumeDescriptor::balls_at(template.radii(), voxel, options.backend);
         let centroid_balls = CentroidDescriptor::balls_like(&balls, options.backend);
         let Signatures {
             volume: template_volume,
