@@ -236,14 +236,49 @@ impl Grid {
 
     /// Every set voxel, in z, y, x order.
     pub fn iter_ones(&self) -> impl Iterator<Item = [u16; 3]> + '_ {
-        let [_, ny, nz] = self.spec.dims;
-        (0..nz).flat_map(move |z| {
-            (0..ny).flat_map(move |y| {
-                self.row(y, z).iter().enumerate().flat_map(move |(wi, &w)| {
-                    BitIter(w).map(move |b| [(wi * 64 + b) as u16, y as u16, z as u16])
-                })
-            })
-        })
+        Ones {
+            words: &self.words[..self.words.len() - 1],
+            words_per_row: self.words_per_row,
+            ny: self.spec.dims[1],
+            next: 0,
+            bits: 0,
+            at: [0; 3],
+        }
+    }
+}
+
+/// The set voxels of a grid's words, word by word: a word's place is worked
+/// out once for all its bits, and empty words (most of a padded part's grid)
+/// cost one test each.
+struct Ones<'a> {
+    words: &'a [u64],
+    words_per_row: usize,
+    ny: usize,
+    /// The word after the one whose bits are left.
+    next: usize,
+    bits: u64,
+    /// The voxel of bit 0 of that word.
+    at: [u16; 3],
+}
+
+impl Iterator for Ones<'_> {
+    type Item = [u16; 3];
+
+    #[inline]
+    fn next(&mut self) -> Option<[u16; 3]> {
+        while self.bits == 0 {
+            let w = *self.words.get(self.next)?;
+            if w != 0 {
+                let row = self.next / self.words_per_row;
+                let x = (self.next % self.words_per_row) * 64;
+                self.at = [x as u16, (row % self.ny) as u16, (row / self.ny) as u16];
+                self.bits = w;
+            }
+            self.next += 1;
+        }
+        let b = self.bits.trailing_zeros() as u16;
+        self.bits &= self.bits - 1;
+        Some([self.at[0] + b, self.at[1], self.at[2]])
     }
 }
 
@@ -294,20 +329,6 @@ impl AtomicGrid {
 }
 
 /// Positions of the set bits of a word, lowest first.
-struct BitIter(u64);
-
-impl Iterator for BitIter {
-    type Item = usize;
-    fn next(&mut self) -> Option<usize> {
-        if self.0 == 0 {
-            return None;
-        }
-        let b = self.0.trailing_zeros() as usize;
-        self.0 &= self.0 - 1;
-        Some(b)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -331,6 +352,30 @@ mod tests {
         assert_eq!(g.count_ones(), 4);
         let ones: Vec<_> = g.iter_ones().collect();
         assert_eq!(ones, vec![[0, 0, 0], [63, 1, 0], [64, 1, 0], [69, 2, 1]]);
+    }
+
+    #[test]
+    fn iterating_finds_every_set_voxel_in_order() {
+        let dims = [130, 7, 5];
+        let mut g = Grid::new(spec(dims));
+        let mut s: u64 = 99;
+        let mut want = Vec::new();
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    // Dense rows, empty rows and the last voxel.
+                    let keep = (y != 3 && s.is_multiple_of(5)) || [x, y, z] == [129, 6, 4];
+                    if keep {
+                        g.set(x, y, z);
+                        want.push([x as u16, y as u16, z as u16]);
+                    }
+                }
+            }
+        }
+        assert_eq!(g.iter_ones().collect::<Vec<_>>(), want);
     }
 
     #[test]
