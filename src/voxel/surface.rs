@@ -241,7 +241,7 @@ impl Plane {
         }
         let first = lo.ceil().max(self.v_cells.0 as f64);
         let last = (hi.floor() - 1.0).min(self.v_cells.1 as f64);
-        (first <= last).then(|| (first as usize, last as usize))
+        (first <= last).then_some((first as usize, last as usize))
     }
 
     /// The depth range over cell (cu, cv): at two of its corners, as the
