@@ -46,13 +46,18 @@ pub(super) struct NearVertices {
     listed: Option<ListedVertices>,
 }
 
-/// Cells listed by vertex at most: the lists' starts take 4 bytes a cell.
+/// Cells listed by vertex at most: the lists take 4 bytes a cell, and the
+/// half cells a byte.
 const MAX_LISTED_CELLS: usize = 1 << 22;
 
 /// A part's vertices sorted by the cell of side at least `reach` that holds
 /// them (each once, however many triangles share it).
 struct ListedVertices {
     spec: GridSpec,
+    /// Cells of half the side that hold a vertex: any point of such a cell
+    /// is within reach of it (its diagonal is 0.87 reach), so on a dense
+    /// mesh most points are accepted by one bit.
+    halves: Grid,
     /// Where the vertices of each cell start in `points`, x fastest; one
     /// more entry than cells.
     start: Vec<u32>,
@@ -78,10 +83,21 @@ impl ListedVertices {
             let inside = (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < spec.dims[a]);
             inside.then(|| (c[0] as usize) + nx * (c[1] as usize + ny * c[2] as usize))
         };
+        let half_spec = GridSpec {
+            origin: spec.origin,
+            voxel_size: spec.voxel_size / 2.0,
+            dims: spec.dims.map(|d| 2 * d),
+        };
+        let mut halves = Grid::new(half_spec);
         let mut start = vec![0u32; cells + 1];
         for &v in &corners {
-            if let Some(c) = cell_of(mesh.vertex(v)) {
+            let p = mesh.vertex(v);
+            if let Some(c) = cell_of(p) {
                 start[c + 1] += 1;
+                let h = half_spec.voxel_of(p).map(|x| x.max(0) as usize);
+                if (0..3).all(|a| h[a] < half_spec.dims[a]) {
+                    halves.set(h[0], h[1], h[2]);
+                }
             }
         }
         for c in 0..cells {
@@ -98,6 +114,7 @@ impl ListedVertices {
         }
         Some(ListedVertices {
             spec,
+            halves,
             start,
             points,
             reach,
@@ -107,6 +124,10 @@ impl ListedVertices {
     /// Whether a vertex lies within reach of `p`: in the 27 cells around
     /// its own, read as 9 runs of 3 along x.
     fn near(&self, p: Vec3) -> bool {
+        let [hx, hy, hz] = self.halves.spec().voxel_of(p);
+        if self.halves.get(hx, hy, hz) {
+            return true;
+        }
         let [nx, ny, nz] = self.spec.dims.map(|d| d as i64);
         let [x, y, z] = self.spec.voxel_of(p);
         let reach2 = self.reach * self.reach;
@@ -134,6 +155,7 @@ impl ListedVertices {
 
     fn bytes(&self) -> u64 {
         (4 * self.start.len() + std::mem::size_of::<Vec3>() * self.points.len()) as u64
+            + 8 * self.halves.words().len() as u64
     }
 }
 
