@@ -172,19 +172,26 @@ pub fn symmetric_eigen(m: [[f64; 3]; 3]) -> ([f64; 3], [Vec3; 3]) {
     (values, vectors)
 }
 
+/// A seeded xorshift source of uniform numbers in [0, 1), for tests that
+/// need many reproducible random inputs.
+#[cfg(test)]
+pub(crate) fn unit_rng(mut s: u64) -> impl FnMut() -> f64 {
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 #[cfg(test)]
 mod eigen_tests {
     use super::*;
 
     #[test]
     fn reconstructs_random_symmetric_matrices() {
-        let mut s: u64 = 5;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut unit = unit_rng(5);
+        let mut rnd = || unit() - 0.5;
         for _ in 0..200 {
             let (a, b, c, d, e, f) = (rnd(), rnd(), rnd(), rnd(), rnd(), rnd());
             let m = [[a, b, c], [b, d, e], [c, e, f]];

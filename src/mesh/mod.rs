@@ -187,6 +187,17 @@ impl TriMesh {
         [self.vertex(a), self.vertex(b), self.vertex(c)]
     }
 
+    /// The vertices `triangles` use, each once, in ascending order.
+    pub fn vertices_of(&self, triangles: &[u32]) -> Vec<u32> {
+        let mut used: Vec<u32> = triangles
+            .iter()
+            .flat_map(|&t| self.triangles[t as usize])
+            .collect();
+        used.sort_unstable();
+        used.dedup();
+        used
+    }
+
     /// Bounding box of the vertices that triangles use.
     pub fn bounds(&self) -> Aabb {
         self.bounds

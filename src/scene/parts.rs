@@ -148,12 +148,7 @@ impl ShellRule {
         let points: Vec<Vec<Vec3>> = shells
             .iter()
             .map(|triangles| {
-                let mut corners: Vec<u32> = triangles
-                    .iter()
-                    .flat_map(|&t| mesh.triangles()[t as usize])
-                    .collect();
-                corners.sort_unstable();
-                corners.dedup();
+                let corners = mesh.vertices_of(triangles);
                 let step = corners.len().div_ceil(per_shell).max(1);
                 corners
                     .iter()

@@ -32,6 +32,17 @@ struct Slab {
     end: u32,
 }
 
+impl Span {
+    /// The run's (first, one past the last) entries in the running sums of
+    /// a level with `ny` rows of blocks a slice and `stride` entries a row,
+    /// relative to the centre block's.
+    #[inline]
+    fn sums_range(&self, ny: i64, stride: i64) -> (i64, i64) {
+        let row = (i64::from(self.dz) * ny + i64::from(self.dy)) * stride;
+        (row + i64::from(self.x0), row + i64::from(self.x1) + 1)
+    }
+}
+
 /// The runs of the ball for one position of the centre inside its block.
 #[derive(Clone, Debug)]
 struct Phase {
@@ -71,6 +82,13 @@ impl Phase {
             lo,
             hi,
         }
+    }
+
+    /// Whether every run around block (or voxel) `c` lies inside a grid
+    /// of `dims`: then counting needs no test per run.
+    #[inline]
+    fn fits(&self, c: [i64; 3], dims: [i64; 3]) -> bool {
+        (0..3).all(|a| c[a] + self.lo[a] >= 0 && c[a] + self.hi[a] < dims[a])
     }
 
     /// The runs for the centre mirrored along the axes `flip` (x, y, z)
@@ -163,10 +181,7 @@ impl BoundRuns {
             phase
                 .spans
                 .iter()
-                .map(|sp| {
-                    let row = (sp.dz as i64 * ny + sp.dy as i64) * stride;
-                    (row + sp.x0 as i64, row + sp.x1 as i64 + 1)
-                })
+                .map(|sp| sp.sums_range(ny, stride))
                 .collect()
         })
     }
@@ -306,8 +321,7 @@ impl Ball {
         let (p, c) = self.phase_at(v);
         let phase = &self.phases[p];
         let d = level.dims().map(|x| x as i64);
-        let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < d[a]);
-        if !inside {
+        if !phase.fits(c, d) {
             return (count_runs(level, phase, c), phase.voxels);
         }
         // Every run lies in the grid: no test per run.
@@ -323,11 +337,8 @@ impl Ball {
             _ => {
                 let (ny, stride) = (d[1], level.stride() as i64);
                 for sp in &phase.spans {
-                    let row = base + (sp.dz as i64 * ny + sp.dy as i64) * stride;
-                    total += u64::from(
-                        sums[(row + sp.x1 as i64 + 1) as usize]
-                            - sums[(row + sp.x0 as i64) as usize],
-                    );
+                    let (lo, hi) = sp.sums_range(ny, stride);
+                    total += u64::from(sums[(base + hi) as usize] - sums[(base + lo) as usize]);
                 }
             }
         }
@@ -506,9 +517,8 @@ fn count_bits(phase: &Phase, grid: &Grid, v: [u16; 3]) -> u64 {
     let c = v.map(|x| x as i64);
     let words = grid.words();
     let wpr = grid.words_per_row();
-    let inside = (0..3).all(|a| c[a] + phase.lo[a] >= 0 && c[a] + phase.hi[a] < [nx, ny, nz][a]);
     let mut total = 0u64;
-    if inside {
+    if phase.fits(c, [nx, ny, nz]) {
         // No test per run, and each row of a slab one step from the last.
         for slab in &phase.slabs {
             let first = (c[2] + i64::from(slab.dz)) * ny + c[1] + i64::from(slab.dy);

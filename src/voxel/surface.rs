@@ -439,39 +439,40 @@ mod tests {
         })
     }
 
+    /// Asserts that the voxels marked for `tri` in a grid of `dims` lie
+    /// between the closed oracle (every marked voxel meets the triangle)
+    /// and the open one (every voxel it meets by more than rounding is
+    /// marked).
+    fn assert_between_oracles(tri: [Vec3; 3], dims: [usize; 3]) {
+        let got = touched(tri, dims);
+        for x in 0..dims[0] {
+            for y in 0..dims[1] {
+                for z in 0..dims[2] {
+                    let v = [x, y, z];
+                    if got.binary_search(&v).is_ok() {
+                        assert!(
+                            sat_overlap(&tri, v, 0.5),
+                            "marked {v:?}, which {tri:?} misses"
+                        );
+                    } else {
+                        assert!(
+                            !sat_overlap(&tri, v, 0.5 - 1e-9),
+                            "missed {v:?} for {tri:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn lies_between_the_open_and_closed_separating_axis_oracles() {
-        let mut s: u64 = 12345;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::math::unit_rng(12345);
         let dims = [12, 12, 12];
         for _ in 0..300 {
             let tri =
                 [0; 3].map(|_| Vec3::new(2.0 + 8.0 * rnd(), 2.0 + 8.0 * rnd(), 2.0 + 8.0 * rnd()));
-            let got = touched(tri, dims);
-            for x in 0..12 {
-                for y in 0..12 {
-                    for z in 0..12 {
-                        let v = [x, y, z];
-                        let ours = got.binary_search(&v).is_ok();
-                        if ours {
-                            assert!(
-                                sat_overlap(&tri, v, 0.5),
-                                "marked {v:?}, which {tri:?} misses"
-                            );
-                        } else {
-                            assert!(
-                                !sat_overlap(&tri, v, 0.5 - 1e-9),
-                                "missed {v:?} for {tri:?}"
-                            );
-                        }
-                    }
-                }
-            }
+            assert_between_oracles(tri, dims);
         }
     }
 
@@ -479,38 +480,14 @@ mod tests {
     fn long_thin_triangles_meet_the_oracle() {
         // Slivers lying diagonally: each strip spans few of the bounding
         // box's columns.
-        let mut s: u64 = 777;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::math::unit_rng(777);
         let dims = [30, 30, 30];
         for _ in 0..60 {
             let a = Vec3::new(1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd());
             let b = Vec3::new(1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd(), 1.0 + 28.0 * rnd());
             let c = a + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
             let tri = [a, b, c];
-            let got = touched(tri, dims);
-            for x in 0..30 {
-                for y in 0..30 {
-                    for z in 0..30 {
-                        let v = [x, y, z];
-                        if got.binary_search(&v).is_ok() {
-                            assert!(
-                                sat_overlap(&tri, v, 0.5),
-                                "marked {v:?}, which {tri:?} misses"
-                            );
-                        } else {
-                            assert!(
-                                !sat_overlap(&tri, v, 0.5 - 1e-9),
-                                "missed {v:?} for {tri:?}"
-                            );
-                        }
-                    }
-                }
-            }
+            assert_between_oracles(tri, dims);
         }
     }
 
@@ -518,31 +495,13 @@ mod tests {
     fn large_triangles_meet_the_oracle() {
         // Most of their cells lie wholly inside: the plane's closed form
         // there, the cuts along the border.
-        let mut s: u64 = 4242;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::math::unit_rng(4242);
         let n = 40;
         let dims = [n; 3];
         for _ in 0..24 {
             let tri = [0; 3]
                 .map(|_| Vec3::new(1.0 + 38.0 * rnd(), 1.0 + 38.0 * rnd(), 1.0 + 38.0 * rnd()));
-            let got = touched(tri, dims);
-            for x in 0..n {
-                for y in 0..n {
-                    for z in 0..n {
-                        let v = [x, y, z];
-                        if got.binary_search(&v).is_ok() {
-                            assert!(sat_overlap(&tri, v, 0.5), "marked {v:?} of {tri:?}");
-                        } else {
-                            assert!(!sat_overlap(&tri, v, 0.5 - 1e-9), "missed {v:?} of {tri:?}");
-                        }
-                    }
-                }
-            }
+            assert_between_oracles(tri, dims);
         }
         // Faces along the grid's planes and diagonals, where corners fall
         // on grid lines.
@@ -563,19 +522,7 @@ mod tests {
                 Vec3::new(5.5, 36.0, 11.25),
             ],
         ] {
-            let got = touched(tri, dims);
-            for x in 0..n {
-                for y in 0..n {
-                    for z in 0..n {
-                        let v = [x, y, z];
-                        if got.binary_search(&v).is_ok() {
-                            assert!(sat_overlap(&tri, v, 0.5), "marked {v:?} of {tri:?}");
-                        } else {
-                            assert!(!sat_overlap(&tri, v, 0.5 - 1e-9), "missed {v:?} of {tri:?}");
-                        }
-                    }
-                }
-            }
+            assert_between_oracles(tri, dims);
         }
     }
 

@@ -72,12 +72,7 @@ impl ListedVertices {
         if cells > MAX_LISTED_CELLS {
             return None;
         }
-        let mut corners: Vec<u32> = triangles
-            .iter()
-            .flat_map(|&t| mesh.triangles()[t as usize])
-            .collect();
-        corners.sort_unstable();
-        corners.dedup();
+        let corners = mesh.vertices_of(triangles);
         let cell_of = |p: Vec3| {
             let c = spec.voxel_of(p);
             let inside = (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < spec.dims[a]);
@@ -373,13 +368,7 @@ mod tests {
             .iter()
             .map(|c| Vec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
             .collect();
-        let mut s: u64 = 5;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::math::unit_rng(5);
         let (mut inside, mut outside) = (0, 0);
         for _ in 0..20_000 {
             let p = Vec3::new(-1.1 + 2.5 * rnd(), -0.5 + 1.1 * rnd(), -0.8 + 1.1 * rnd());

@@ -31,14 +31,7 @@ fn filled(mesh: &TriMesh, spec: &GridSpec, path: Path, open: bool) -> Grid {
     out.into_grid()
 }
 
-fn rng(mut s: u64) -> impl FnMut() -> f64 {
-    move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use crate::math::unit_rng as rng;
 
 /// Separate shells that stress the sparse path: tents (two large
 /// triangles sharing an edge), thin slivers lying diagonally, tetrahedra,
