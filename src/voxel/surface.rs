@@ -3,7 +3,9 @@
 //! Each triangle is swept along its dominant normal axis, one column of
 //! voxels at a time. The triangle is clipped to the column's square; since the
 //! clipped piece is planar, its depth range is exactly the range over the
-//! clipped polygon's corners, so the voxels marked are exactly those the
+//! clipped polygon's corners (read from the strip's two sides where they
+//! cross the square's lines, or from the plane where the square lies wholly
+//! inside the triangle), so the voxels marked are exactly those the
 //! triangle meets (a voxel spans `[i, i + 1)`; pieces that only touch a
 //! column's side are left to the neighbouring column). Thin sheets and open
 //! surfaces therefore always leave a gap-free (26-connected) trace, which the
@@ -94,37 +96,37 @@ pub(crate) fn for_each_touched_voxel(
         column(lo[u], lo[v], lo_p[w], hi_p[w]);
         return;
     }
-    // Cut the triangle along every grid line it crosses, first in u, then
-    // each strip in v: each cut yields both sides in one pass, written into
-    // buffers owned here (these polygons are too big to move around).
+    // Cut the triangle along every grid line it crosses in u: each cut
+    // yields both sides in one pass, written into buffers owned here (these
+    // polygons are too big to move around). Each strip is then read cell by
+    // cell in v along its two sides.
     let mut strip = [Polygon::EMPTY, Polygon::EMPTY];
     for (i, q) in tri.iter().enumerate() {
         strip[0].p[i] = [q[u], q[v], q[w]];
     }
     strip[0].n = 3;
-    let mut piece = [Polygon::EMPTY, Polygon::EMPTY];
-    let mut below = Polygon::EMPTY;
+    let mut piece = Polygon::EMPTY;
+    let mut sides = [Chain::EMPTY, Chain::EMPTY];
     let mut cur_strip = 0;
     let plane = Plane::new(&tri, u, v, w, (lo[v], hi[v]));
     for cu in lo[u]..=hi[u] {
         if cu < hi[u] {
             let [a, b] = &mut strip;
             let (src, above) = if cur_strip == 0 { (&*a, b) } else { (&*b, a) };
-            split(src, 0, (cu + 1) as f64, &mut piece[0], above);
+            split(src, 0, (cu + 1) as f64, &mut piece, above);
             cur_strip ^= 1;
         } else {
-            piece[0] = strip[cur_strip];
+            piece = strip[cur_strip];
         }
-        // piece[0] holds the strip of column cu; cut it along v, over the
-        // strip's own extent only: a cut below the strip leaves it as it is,
-        // and nothing is left past it, so the columns of the triangle's
-        // bounding box that the strip misses cost nothing (a long thin
-        // triangle lying diagonally would otherwise cost its box's area).
-        if piece[0].n < 3 {
+        // `piece` holds the strip of column cu; it is read over its own
+        // extent in v only, so the columns of the triangle's bounding box
+        // that the strip misses cost nothing (a long thin triangle lying
+        // diagonally would otherwise cost its box's area).
+        if piece.n < 3 {
             continue;
         }
         let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
-        for q in &piece[0].p[..piece[0].n] {
+        for q in &piece.p[..piece.n] {
             vmin = vmin.min(q[1]);
             vmax = vmax.max(q[1]);
         }
@@ -137,12 +139,18 @@ pub(crate) fn for_each_touched_voxel(
             continue;
         }
         // The cells wholly inside the triangle take their depth range from
-        // the plane; the chain of cuts resumes past them.
+        // the plane; the others from the strip's corners within the cell
+        // and where its two sides cross the cell's lines.
         let inner = plane
             .inner_cells(cu)
             .filter(|&(a, b)| a > first && b < last);
-        let strip_now = piece[0];
-        let mut cur = 0;
+        // A strip with no area (a degenerate triangle's) marks nothing.
+        if piece.depth_range().is_none() {
+            continue;
+        }
+        if !Chain::sides_of(&piece, &mut sides) {
+            continue;
+        }
         let mut cv = first;
         while cv <= last {
             if let Some((a, b)) = inner.filter(|&(a, _)| a == cv) {
@@ -150,27 +158,132 @@ pub(crate) fn for_each_touched_voxel(
                     let (dmin, dmax) = plane.depth_range(cu, cv);
                     column(cu, cv, dmin, dmax);
                 }
-                // What is left of the strip above the inner cells.
-                let [p0, p1] = &mut piece;
-                split(&strip_now, 1, (b + 1) as f64, &mut below, p0);
-                *p1 = Polygon::EMPTY;
-                cur = 0;
                 cv = b + 1;
                 continue;
             }
-            let range = if cv < last {
-                let [a, b] = &mut piece;
-                let (src, above) = if cur == 0 { (&*a, b) } else { (&*b, a) };
-                split(src, 1, (cv + 1) as f64, &mut below, above);
-                cur ^= 1;
-                below.depth_range()
-            } else {
-                piece[cur].depth_range()
-            };
-            if let Some((dmin, dmax)) = range {
-                column(cu, cv, dmin, dmax);
+            let (c0, c1) = (cv as f64, cv as f64 + 1.0);
+            // A strip that only touches the cell's line has no area in it
+            // (the neighbouring cell has); inside, a convex strip always has.
+            let touches_only = (cv == first && vmin >= c1) || (cv == last && vmax <= c0);
+            // The last cell takes what is left above, past the grid too.
+            let top = (cv < last).then_some(c1);
+            let mut range = (f64::INFINITY, f64::NEG_INFINITY);
+            for side in &mut sides {
+                side.depths_between(c0, top, &mut range);
+            }
+            if !touches_only {
+                column(cu, cv, range.0, range.1);
             }
             cv += 1;
+        }
+    }
+}
+
+/// One side of a convex strip polygon, from its lowest corner in v to its
+/// highest: where it crosses a grid line v = c is one multiply-add on the
+/// edge that spans c, so a cell costs its two lines, not a polygon cut.
+#[derive(Clone, Copy)]
+struct Chain {
+    /// Corners in order of v (non-decreasing), as (v, depth).
+    v: [f64; 9],
+    w: [f64; 9],
+    /// Depth per unit of v along the edge from corner i to i + 1.
+    slope: [f64; 9],
+    len: usize,
+    /// The first corner not yet passed: every corner before it lies below
+    /// the current cell's lower line.
+    at: usize,
+}
+
+impl Chain {
+    const EMPTY: Chain = Chain {
+        v: [0.0; 9],
+        w: [0.0; 9],
+        slope: [0.0; 9],
+        len: 0,
+        at: 0,
+    };
+
+    /// Sets `sides` to the two sides of `poly` (at least 3 corners);
+    /// false for a polygon with no extent in v. In place: the chains are
+    /// too big to move around per strip.
+    fn sides_of(poly: &Polygon, sides: &mut [Chain; 2]) -> bool {
+        let pts = &poly.p[..poly.n];
+        let n = pts.len();
+        if n < 3 {
+            return false;
+        }
+        let (mut low, mut high) = (0, 0);
+        for (i, q) in pts.iter().enumerate() {
+            if q[1] < pts[low][1] {
+                low = i;
+            }
+            if q[1] > pts[high][1] {
+                high = i;
+            }
+        }
+        if pts[high][1] <= pts[low][1] {
+            return false;
+        }
+        for (c, step) in sides.iter_mut().zip([1, n - 1]) {
+            c.len = 0;
+            c.at = 0;
+            let mut i = low;
+            loop {
+                c.v[c.len] = pts[i][1];
+                c.w[c.len] = pts[i][2];
+                c.len += 1;
+                if i == high || c.len == c.v.len() {
+                    break;
+                }
+                i = (i + step) % n;
+            }
+            for k in 0..c.len - 1 {
+                let dv = c.v[k + 1] - c.v[k];
+                c.slope[k] = if dv > 0.0 {
+                    (c.w[k + 1] - c.w[k]) / dv
+                } else {
+                    0.0
+                };
+            }
+        }
+        true
+    }
+
+    /// The depth where this side crosses the line v = `c` strictly
+    /// between two corners.
+    #[inline]
+    fn crossing(&self, c: f64) -> Option<f64> {
+        let k = self.at;
+        (k > 0 && k < self.len && self.v[k - 1] < c && c < self.v[k])
+            .then(|| self.w[k - 1] + (c - self.v[k - 1]) * self.slope[k - 1])
+    }
+
+    /// Widens `range` by this side's depths over the cell from line `c0`
+    /// up to line `top` (to its end when `None`), and moves past the
+    /// corners below the next cell's lower line.
+    #[inline]
+    fn depths_between(&mut self, c0: f64, top: Option<f64>, range: &mut (f64, f64)) {
+        let mut widen = |d: f64| {
+            range.0 = range.0.min(d);
+            range.1 = range.1.max(d);
+        };
+        if let Some(d) = self.crossing(c0) {
+            widen(d);
+        }
+        let c1 = top.unwrap_or(f64::INFINITY);
+        while self.at < self.len && self.v[self.at] <= c1 {
+            widen(self.w[self.at]);
+            // A corner on the upper line belongs to the next cell too.
+            if self.v[self.at] == c1 {
+                break;
+            }
+            self.at += 1;
+        }
+        if let Some(c1) = top
+            && let Some(d) = self.crossing(c1)
+        {
+            widen(d);
         }
     }
 }
