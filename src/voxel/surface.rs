@@ -236,7 +236,11 @@ impl Chain {
                 if i == high || c.len == c.v.len() {
                     break;
                 }
-                i = (i + step) % n;
+                // (i + step) mod n, without a division.
+                i += step;
+                if i >= n {
+                    i -= n;
+                }
             }
             for k in 0..c.len - 1 {
                 let dv = c.v[k + 1] - c.v[k];
