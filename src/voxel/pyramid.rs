@@ -12,6 +12,7 @@
 //! Each row of blocks is stored as running sums along x, so the count of any
 //! run of blocks is one subtraction.
 
+use std::cell::RefCell;
 use std::sync::OnceLock;
 
 use super::grid::Grid;
@@ -30,12 +31,44 @@ pub fn level_for_radius(radius: f64, blocks: f64) -> u32 {
     level
 }
 
+thread_local! {
+    /// Running-sum buffers of dropped levels, all zero again, for the next
+    /// level built on this thread.
+    static SPARE_SUMS: RefCell<Vec<Vec<u32>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Buffers a thread keeps, and the most entries one may hold (16 MiB): a
+/// few parts' worth, outside the memory budget.
+const SPARE_BUFFERS: usize = 2;
+const SPARE_MAX_ENTRIES: usize = 4 << 20;
+
+/// A zeroed buffer of at least `len` entries (at most twice that): a
+/// spare one where this thread has one. A part's level is mostly the empty
+/// rows of its padding, so zeroing fresh memory for it was 5% of the
+/// search of a building of distinct parts, while giving one back zeroes
+/// only the rows it wrote.
+fn zeroed_sums(len: usize) -> Vec<u32> {
+    let spare = SPARE_SUMS.try_with(|spare| {
+        let mut spare = spare.borrow_mut();
+        let fits = spare
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.len() >= len && b.len() / 2 <= len)
+            .min_by_key(|(_, b)| b.len())
+            .map(|(i, _)| i)?;
+        Some(spare.swap_remove(fits))
+    });
+    spare.ok().flatten().unwrap_or_else(|| vec![0; len])
+}
+
 /// One level: block counts as running sums along x (for balls), and block
 /// occupancy as bytes (for interpolating spheres).
 pub struct CountLevel {
     level: u32,
     dims: [usize; 3],
     stride: usize,
+    /// The running sums, row after row; may run past them (a spare buffer,
+    /// zero there).
     prefix: Vec<u32>,
     /// Solid fraction of each block times 255, rounded; one trailing zero so
     /// that two neighbours can always be read together. Only spheres read
@@ -73,7 +106,12 @@ impl CountLevel {
 
     /// The running sums, row after row.
     pub fn prefix(&self) -> &[u32] {
-        &self.prefix
+        &self.prefix[..self.sums_len()]
+    }
+
+    /// Entries of the running sums.
+    fn sums_len(&self) -> usize {
+        self.stride * self.dims[1] * self.dims[2]
     }
 
     /// Solid voxels in blocks `x0..=x1` of the row starting at `row`.
@@ -152,9 +190,10 @@ impl CountLevel {
         count: impl Fn(usize, &mut [u32]) + Sync + Send,
     ) -> CountLevel {
         let stride = dims[0] + 1;
-        let mut prefix = vec![0u32; stride * dims[1] * dims[2]];
+        let len = stride * dims[1] * dims[2];
+        let mut prefix = zeroed_sums(len);
         // Counts go to entries 1.., then become running sums in place.
-        backend.for_each_row(&mut prefix, stride, |r, row| {
+        backend.for_each_row(&mut prefix[..len], stride, |r, row| {
             if empty(r) {
                 return;
             }
@@ -246,6 +285,33 @@ impl CountLevel {
     }
 }
 
+impl Drop for CountLevel {
+    /// Gives the running sums back to this thread's spares, zeroed: only
+    /// rows that hold solid were written, and their sums end above zero.
+    fn drop(&mut self) {
+        let mut sums = std::mem::take(&mut self.prefix);
+        if sums.len() > SPARE_MAX_ENTRIES {
+            return;
+        }
+        let (len, stride) = (self.sums_len(), self.stride);
+        for row in sums[..len].chunks_exact_mut(stride) {
+            if row[stride - 1] != 0 {
+                row.fill(0);
+            }
+        }
+        let _ = SPARE_SUMS.try_with(|spare| {
+            let mut spare = spare.borrow_mut();
+            if spare.len() < SPARE_BUFFERS {
+                spare.push(sums);
+            } else if let Some(smaller) = spare.iter_mut().min_by_key(|b| b.len())
+                && smaller.len() < sums.len()
+            {
+                *smaller = sums;
+            }
+        });
+    }
+}
+
 /// A solid bit grid with its pyramid levels, each built on first use.
 pub struct Solid {
     bits: Grid,
@@ -329,6 +395,53 @@ mod tests {
                             }
                         }
                         assert_eq!(l.block(x, y, z), n, "level {level} block {x} {y} {z}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_level_built_on_a_spare_buffer_counts_as_on_a_fresh_one() {
+        // A full grid writes every row; the sparse one after it on this
+        // thread takes its buffer back and leaves most rows unwritten, which
+        // must read zero.
+        let spec = GridSpec {
+            origin: Vec3::ZERO,
+            voxel_size: 1.0,
+            dims: [70, 30, 26],
+        };
+        let mut full = Grid::new(spec);
+        for z in 0..26 {
+            for y in 0..30 {
+                for x in 0..70 {
+                    full.set(x, y, z);
+                }
+            }
+        }
+        let mut sparse = Grid::new(spec);
+        sparse.set(5, 7, 9);
+        sparse.set(60, 20, 3);
+        for grid in [full, sparse.clone(), sparse] {
+            let solid = Solid::new(grid.clone());
+            for level in 1..=2 {
+                let l = solid.level(level, Threads::Serial);
+                let sc = l.scale() as i64;
+                for z in 0..l.dims()[2] {
+                    for y in 0..l.dims()[1] {
+                        for x in 0..l.dims()[0] {
+                            let mut n = 0;
+                            for (dx, dy, dz) in (0..sc).flat_map(|a| {
+                                (0..sc).flat_map(move |b| (0..sc).map(move |c| (a, b, c)))
+                            }) {
+                                n += grid.get(
+                                    x as i64 * sc + dx,
+                                    y as i64 * sc + dy,
+                                    z as i64 * sc + dz,
+                                ) as u32;
+                            }
+                            assert_eq!(l.block(x, y, z), n, "level {level} block {x} {y} {z}");
+                        }
                     }
                 }
             }
