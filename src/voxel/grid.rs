@@ -45,7 +45,7 @@ impl GridSpec {
     /// The grid with voxels of `voxel_size` that holds `bounds` plus padding
     /// (templates use the scene's voxel size so that radii agree). Fails when
     /// a side would need more voxels than a voxel coordinate (u16) holds.
-    pub fn around(bounds: Aabb, voxel_size: f64) -> Result<GridSpec> {
+    pub(crate) fn around(bounds: Aabb, voxel_size: f64) -> Result<GridSpec> {
         let sides = Self::sides(bounds, voxel_size);
         let ext = bounds.extent();
         if !sides.iter().all(|s| (1.0..=u16::MAX as f64).contains(s)) {
@@ -143,6 +143,105 @@ impl GridSpec {
     }
 }
 
+/// The rows `(y, z)` of a grid that may hold set voxels: `y[0]..y[1]` and
+/// `z[0]..z[1]`. A part's grid is padded by the template's radius on every
+/// side, so most of its rows are empty; the passes over a whole grid (the
+/// union, the skin, the pyramid's first level, counting and listing)
+/// leave the others unread, as reading them was most of their work.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Rows {
+    /// Rows `y[0]..y[1]` along y.
+    pub y: [usize; 2],
+    /// Planes `z[0]..z[1]` along z.
+    pub z: [usize; 2],
+}
+
+impl Rows {
+    /// Every row of a grid of `dims`.
+    pub(crate) fn all(dims: [usize; 3]) -> Rows {
+        Rows {
+            y: [0, dims[1]],
+            z: [0, dims[2]],
+        }
+    }
+
+    /// No row.
+    pub(crate) const NONE: Rows = Rows {
+        y: [0, 0],
+        z: [0, 0],
+    };
+
+    /// The rows of the voxels holding points `lo..=hi` (y and z, in grid
+    /// units), within a grid of `dims`.
+    pub(crate) fn around(lo: [f64; 2], hi: [f64; 2], dims: [usize; 3]) -> Rows {
+        let first = |v: f64| v.floor().max(0.0);
+        let end = |v: f64, n: usize| (v.floor() + 1.0).clamp(0.0, n as f64);
+        let (y0, z0) = (first(lo[0]) as usize, first(lo[1]) as usize);
+        let (y1, z1) = (end(hi[0], dims[1]) as usize, end(hi[1], dims[2]) as usize);
+        match y0 < y1 && z0 < z1 {
+            true => Rows {
+                y: [y0, y1],
+                z: [z0, z1],
+            },
+            false => Rows::NONE,
+        }
+    }
+
+    /// Whether it holds no row.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.y[0] >= self.y[1] || self.z[0] >= self.z[1]
+    }
+
+    /// Whether row `(y, z)` is one of them.
+    pub(crate) fn holds(&self, y: usize, z: usize) -> bool {
+        (self.y[0]..self.y[1]).contains(&y) && (self.z[0]..self.z[1]).contains(&z)
+    }
+
+    /// The smallest rows holding both.
+    pub(crate) fn union(self, other: Rows) -> Rows {
+        match (self.is_empty(), other.is_empty()) {
+            (true, _) => other,
+            (_, true) => self,
+            _ => Rows {
+                y: [self.y[0].min(other.y[0]), self.y[1].max(other.y[1])],
+                z: [self.z[0].min(other.z[0]), self.z[1].max(other.z[1])],
+            },
+        }
+    }
+
+    /// The rows both hold.
+    pub(crate) fn intersection(self, other: Rows) -> Rows {
+        let y = [self.y[0].max(other.y[0]), self.y[1].min(other.y[1])];
+        let z = [self.z[0].max(other.z[0]), self.z[1].min(other.z[1])];
+        match y[0] < y[1] && z[0] < z[1] {
+            true => Rows { y, z },
+            false => Rows::NONE,
+        }
+    }
+
+    /// These rows and their neighbours, within a grid of `dims`.
+    pub(crate) fn grown(self, dims: [usize; 3]) -> Rows {
+        match self.is_empty() {
+            true => self,
+            false => Rows {
+                y: [self.y[0].saturating_sub(1), (self.y[1] + 1).min(dims[1])],
+                z: [self.z[0].saturating_sub(1), (self.z[1] + 1).min(dims[2])],
+            },
+        }
+    }
+
+    /// The rows of blocks of 2 x 2 voxels that hold these rows.
+    pub(crate) fn halved(self) -> Rows {
+        match self.is_empty() {
+            true => self,
+            false => Rows {
+                y: [self.y[0] / 2, self.y[1].div_ceil(2)],
+                z: [self.z[0] / 2, self.z[1].div_ceil(2)],
+            },
+        }
+    }
+}
+
 /// A bit per voxel, rows along x packed into 64-bit words.
 ///
 /// Word `w` of row `(y, z)` is at `(z * ny + y) * words_per_row + w`; bits past
@@ -153,6 +252,8 @@ pub struct Grid {
     spec: GridSpec,
     words_per_row: usize,
     words: Vec<u64>,
+    /// Every set voxel lies in these rows.
+    rows: Rows,
 }
 
 impl Grid {
@@ -163,6 +264,7 @@ impl Grid {
             spec,
             words_per_row,
             words: vec![0; words_per_row * spec.dims[1] * spec.dims[2] + 1],
+            rows: Rows::all(spec.dims),
         }
     }
 
@@ -174,7 +276,35 @@ impl Grid {
             spec,
             words_per_row,
             words,
+            rows: Rows::all(spec.dims),
         }
+    }
+
+    /// The rows that may hold set voxels.
+    pub(crate) fn rows(&self) -> Rows {
+        self.rows
+    }
+
+    /// This grid, known to hold set voxels in `rows` only (checked in
+    /// debug builds).
+    pub(crate) fn within(mut self, rows: Rows) -> Grid {
+        let rows = rows.intersection(self.rows);
+        debug_assert!(
+            (0..self.spec.dims[2]).all(|z| (0..self.spec.dims[1])
+                .all(|y| rows.holds(y, z) || self.row(y, z).iter().all(|&w| w == 0))),
+            "set voxels outside {rows:?}"
+        );
+        self.rows = rows;
+        self
+    }
+
+    /// The word ranges of the rows that may hold set voxels: one run of
+    /// rows per plane.
+    pub(crate) fn row_runs(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        let rows = self.rows;
+        (rows.z[0]..rows.z[1])
+            .filter(move |_| !rows.is_empty())
+            .map(move |z| self.row_start(rows.y[0], z)..self.row_start(rows.y[1], z))
     }
 
     /// Placement in world space.
@@ -197,9 +327,15 @@ impl Grid {
         &self.words
     }
 
-    /// Mutable words; callers must keep the bits past `nx` zero.
+    /// Mutable words; callers must keep the bits past `nx` zero, and set
+    /// none outside [`Grid::rows`].
     pub(crate) fn words_mut(&mut self) -> &mut [u64] {
         &mut self.words
+    }
+
+    /// The rows that may hold set voxels from now on: `rows` too.
+    pub(crate) fn widen_rows(&mut self, rows: Rows) {
+        self.rows = self.rows.union(rows);
     }
 
     /// Index of the first word of row `(y, z)`.
@@ -227,23 +363,36 @@ impl Grid {
     pub fn set(&mut self, x: usize, y: usize, z: usize) {
         let i = self.row_start(y, z) + (x >> 6);
         self.words[i] |= 1 << (x & 63);
+        if !self.rows.holds(y, z) {
+            self.rows = self.rows.union(Rows {
+                y: [y, y + 1],
+                z: [z, z + 1],
+            });
+        }
     }
 
     /// Number of set voxels.
     pub fn count_ones(&self) -> u64 {
-        self.words.iter().map(|w| w.count_ones() as u64).sum()
+        self.row_runs()
+            .map(|run| {
+                self.words[run]
+                    .iter()
+                    .map(|w| w.count_ones() as u64)
+                    .sum::<u64>()
+            })
+            .sum()
     }
 
     /// Every set voxel, in z, y, x order.
     pub fn iter_ones(&self) -> impl Iterator<Item = [u16; 3]> + '_ {
-        Ones {
-            words: &self.words[..self.words.len() - 1],
+        self.row_runs().flat_map(|run| Ones {
+            words: &self.words[..run.end],
             words_per_row: self.words_per_row,
             ny: self.spec.dims[1],
-            next: 0,
+            next: run.start,
             bits: 0,
             at: [0; 3],
-        }
+        })
     }
 }
 

@@ -39,8 +39,12 @@ pub fn voxelize(mesh: &TriMesh, spec: &GridSpec, backend: Threads) -> Grid {
 
 /// The solid: the surface voxels with the filled interior.
 fn union(mut surface: Grid, interior: &Grid) -> Grid {
-    for (s, i) in surface.words_mut().iter_mut().zip(interior.words()) {
-        *s |= i;
+    surface.widen_rows(interior.rows());
+    let words = surface.words_mut();
+    for run in interior.row_runs() {
+        for (s, i) in words[run.clone()].iter_mut().zip(&interior.words()[run]) {
+            *s |= i;
+        }
     }
     surface
 }

@@ -15,7 +15,7 @@
 use std::cell::RefCell;
 use std::sync::OnceLock;
 
-use super::grid::Grid;
+use super::grid::{Grid, Rows};
 use crate::exec::{Threads, made_once};
 
 /// Levels 1..=MAX_LEVEL can be built (level 0 is the bit grid itself).
@@ -70,6 +70,8 @@ pub struct CountLevel {
     /// The running sums, row after row; may run past them (a spare buffer,
     /// zero there).
     prefix: Vec<u32>,
+    /// The rows of blocks that may hold solid; the others are zero.
+    rows: Rows,
     /// Solid fraction of each block times 255, rounded; one trailing zero so
     /// that two neighbours can always be read together. Only spheres read
     /// it, so it is made on first use: most levels serve balls alone.
@@ -140,6 +142,9 @@ impl CountLevel {
             &mut occupancy[..dims[0] * dims[1] * dims[2]],
             dims[0],
             |r, out| {
+                if !self.rows.holds(r % dims[1], r / dims[1]) {
+                    return;
+                }
                 let sums = &self.prefix[r * stride..(r + 1) * stride];
                 if sums[stride - 1] == 0 {
                     // Left zero: see [`CountLevel::build`].
@@ -185,28 +190,36 @@ impl CountLevel {
     fn build(
         level: u32,
         dims: [usize; 3],
+        rows: Rows,
         backend: Threads,
-        empty: impl Fn(usize) -> bool + Sync + Send,
-        count: impl Fn(usize, &mut [u32]) + Sync + Send,
+        empty: impl Fn(usize, usize) -> bool + Sync + Send,
+        count: impl Fn(usize, usize, &mut [u32]) + Sync + Send,
     ) -> CountLevel {
         let stride = dims[0] + 1;
         let len = stride * dims[1] * dims[2];
         let mut prefix = zeroed_sums(len);
-        // Counts go to entries 1.., then become running sums in place.
-        backend.for_each_row(&mut prefix[..len], stride, |r, row| {
-            if empty(r) {
-                return;
-            }
-            // Fresh zeroed memory is first touched by a write: a read first
-            // maps the shared zero page and the write then faults again.
-            row.fill(0);
-            count(r, &mut row[1..]);
-            // The running sum stays in a register: reading back the entry
-            // just written chains every step through memory.
-            let mut sum = 0;
-            for x in &mut row[1..] {
-                sum += *x;
-                *x = sum;
+        // Plane by plane, the rows of blocks that may hold solid only.
+        let plane = stride * dims[1];
+        let (first, end) = (rows.z[0].min(rows.z[1]), rows.z[1]);
+        backend.for_each_row(&mut prefix[first * plane..end * plane], plane, |i, sums| {
+            let z = first + i;
+            for y in rows.y[0]..rows.y[1] {
+                if empty(y, z) {
+                    continue;
+                }
+                let row = &mut sums[y * stride..(y + 1) * stride];
+                // Fresh zeroed memory is first touched by a write: a read
+                // first maps the shared zero page and the write then faults
+                // again.
+                row.fill(0);
+                count(y, z, &mut row[1..]);
+                // The running sum stays in a register: reading back the
+                // entry just written chains every step through memory.
+                let mut sum = 0;
+                for x in &mut row[1..] {
+                    sum += *x;
+                    *x = sum;
+                }
             }
         });
         CountLevel {
@@ -214,6 +227,7 @@ impl CountLevel {
             dims,
             stride,
             prefix,
+            rows,
             occupancy: OnceLock::new(),
         }
     }
@@ -225,17 +239,18 @@ impl CountLevel {
         let dims = [nx.div_ceil(2), ny.div_ceil(2), nz.div_ceil(2)];
         let wpr = grid.words_per_row();
         let words = grid.words();
-        let rows_of = |r: usize| {
-            let (y, z) = (r % dims[1], r / dims[1]);
+        let rows_of = |y: usize, z: usize| {
             [(0, 0), (1, 0), (0, 1), (1, 1)]
                 .into_iter()
                 .filter(move |&(dy, dz)| 2 * y + dy < ny && 2 * z + dz < nz)
                 .map(move |(dy, dz)| grid.row_start(2 * y + dy, 2 * z + dz))
         };
-        let empty =
-            |r: usize| rows_of(r).all(|start| words[start..start + wpr].iter().all(|&w| w == 0));
-        CountLevel::build(1, dims, backend, empty, |r, out| {
-            let rows: Vec<usize> = rows_of(r).collect();
+        let empty = |y: usize, z: usize| {
+            rows_of(y, z).all(|start| words[start..start + wpr].iter().all(|&w| w == 0))
+        };
+        let rows = grid.rows().halved();
+        CountLevel::build(1, dims, rows, backend, empty, |y, z, out| {
+            let rows: Vec<usize> = rows_of(y, z).collect();
             for k in 0..wpr {
                 let (mut even, mut odd) = (0u64, 0u64);
                 for &start in &rows {
@@ -265,8 +280,7 @@ impl CountLevel {
         let d = self.dims;
         let dims = [d[0].div_ceil(2), d[1].div_ceil(2), d[2].div_ceil(2)];
         // The starts of the source rows (four, fewer at the far sides).
-        let sources = |r: usize| {
-            let (y, z) = (r % dims[1], r / dims[1]);
+        let sources = |y: usize, z: usize| {
             [(0, 0), (1, 0), (0, 1), (1, 1)]
                 .into_iter()
                 .map(move |(dy, dz)| (2 * y + dy, 2 * z + dz))
@@ -274,9 +288,10 @@ impl CountLevel {
                 .map(|(yy, zz)| self.row_start(yy, zz))
         };
         // A source row is empty when its running sum ends at 0.
-        let empty = |r: usize| sources(r).all(|row| self.prefix[row + d[0]] == 0);
-        CountLevel::build(self.level + 1, dims, backend, empty, |r, out| {
-            for row in sources(r) {
+        let empty = |y: usize, z: usize| sources(y, z).all(|row| self.prefix[row + d[0]] == 0);
+        let rows = self.rows.halved();
+        CountLevel::build(self.level + 1, dims, rows, backend, empty, |y, z, out| {
+            for row in sources(y, z) {
                 for (x, o) in out.iter_mut().enumerate() {
                     *o += self.run(row, 2 * x, (2 * x + 1).min(d[0] - 1));
                 }
@@ -294,7 +309,13 @@ impl Drop for CountLevel {
             return;
         }
         let (len, stride) = (self.sums_len(), self.stride);
-        for row in sums[..len].chunks_exact_mut(stride) {
+        let rows = self.rows;
+        let plane = stride * self.dims[1];
+        let held = match rows.is_empty() {
+            true => 0..0,
+            false => rows.z[0] * plane..rows.z[1] * plane,
+        };
+        for row in sums[..len][held].chunks_exact_mut(stride) {
             if row[stride - 1] != 0 {
                 row.fill(0);
             }

@@ -2,7 +2,7 @@
 //! candidate points of the voxel descriptors: every place the template's
 //! centre, a surface point, could be.
 
-use super::grid::Grid;
+use super::grid::{Grid, Rows};
 use crate::exec::Threads;
 
 /// One voxel of `skin` (sorted by (z, y, x)) per cube of `spacing`
@@ -32,47 +32,49 @@ pub fn spaced(skin: &[[u16; 3]], spacing: u16) -> Vec<u32> {
 
 /// The skin of a solid grid (voxels outside the grid count as empty).
 pub fn skin(solid: &Grid, backend: Threads) -> Grid {
+    let [_, ny, _] = solid.dims();
+    let wpr = solid.words_per_row();
+    let mut out = vec![0u64; solid.words().len()];
+    let rows = solid.rows();
+    // Plane by plane, the rows that may hold solid only.
+    let plane = ny * wpr;
+    let (first, end) = (rows.z[0].min(rows.z[1]), rows.z[1]);
+    let empty_row = vec![0u64; wpr];
+    backend.for_each_row(&mut out[first * plane..end * plane], plane, |i, out| {
+        for y in rows.y[0]..rows.y[1] {
+            let out = &mut out[y * wpr..(y + 1) * wpr];
+            skin_row(solid, y, first + i, &empty_row, out);
+        }
+    });
+    Grid::from_words(*solid.spec(), out).within(rows)
+}
+
+/// The skin of row `(y, z)` of `solid` into `out`, which an empty row
+/// leaves as allocated (zero). `empty_row`: a row of zeros.
+fn skin_row(solid: &Grid, y: usize, z: usize, empty_row: &[u64], out: &mut [u64]) {
     let [_, ny, nz] = solid.dims();
     let wpr = solid.words_per_row();
     let words = solid.words();
-    let empty_row = vec![0u64; wpr];
     let row = |y: usize, z: usize| -> &[u64] { &words[solid.row_start(y, z)..][..wpr] };
-    let mut out = vec![0u64; words.len()];
-    backend.for_each_row(&mut out, wpr, |r, out| {
-        // The last chunk is the grid's trailing zero word.
-        if r >= ny * nz {
-            return;
-        }
-        let (y, z) = (r % ny, r / ny);
-        let cur = row(y, z);
-        if cur.iter().all(|&w| w == 0) {
-            // Left as allocated: most rows of a padded part's grid are
-            // empty, and writing their zeros was most of the work.
-            return;
-        }
-        let ym = if y > 0 { row(y - 1, z) } else { &empty_row };
-        let yp = if y + 1 < ny {
-            row(y + 1, z)
-        } else {
-            &empty_row
-        };
-        let zm = if z > 0 { row(y, z - 1) } else { &empty_row };
-        let zp = if z + 1 < nz {
-            row(y, z + 1)
-        } else {
-            &empty_row
-        };
-        for k in 0..wpr {
-            let w = cur[k];
-            let prev = if k > 0 { cur[k - 1] } else { 0 };
-            let next = if k + 1 < wpr { cur[k + 1] } else { 0 };
-            let xm = (w << 1) | (prev >> 63);
-            let xp = (w >> 1) | (next << 63);
-            let enclosed = xm & xp & ym[k] & yp[k] & zm[k] & zp[k];
-            out[k] = w & !enclosed;
-        }
-    });
-    Grid::from_words(*solid.spec(), out)
+    let cur = row(y, z);
+    if cur.iter().all(|&w| w == 0) {
+        // Most rows of a padded part's grid are empty, and writing their
+        // zeros was most of the work.
+        return;
+    }
+    let ym = if y > 0 { row(y - 1, z) } else { empty_row };
+    let yp = if y + 1 < ny { row(y + 1, z) } else { empty_row };
+    let zm = if z > 0 { row(y, z - 1) } else { empty_row };
+    let zp = if z + 1 < nz { row(y, z + 1) } else { empty_row };
+    for k in 0..wpr {
+        let w = cur[k];
+        let prev = if k > 0 { cur[k - 1] } else { 0 };
+        let next = if k + 1 < wpr { cur[k + 1] } else { 0 };
+        let xm = (w << 1) | (prev >> 63);
+        let xp = (w >> 1) | (next << 63);
+        let enclosed = xm & xp & ym[k] & yp[k] & zm[k] & zp[k];
+        out[k] = w & !enclosed;
+    }
 }
 
 /// The grid grown by one voxel in every direction (the 3 x 3 x 3
@@ -103,10 +105,18 @@ pub fn dilate(grid: &Grid, backend: Threads) -> Grid {
             grown
         }
     };
+    // Set voxels lie in `held`; the grown ones in its neighbours, and
+    // along x and y in `flat`.
+    let held = grid.rows();
+    let grown_rows = held.grown(grid.dims());
+    let flat = Rows {
+        y: grown_rows.y,
+        z: held.z,
+    };
     // Along x and y in one pass: the grown rows y - 1, y and y + 1.
     let mut along_xy = vec![0u64; words.len()];
     backend.for_each_row(&mut along_xy, wpr, |r, out| {
-        if r >= rows {
+        if r >= rows || !flat.holds(r % ny, r / ny) {
             return;
         }
         let y = r % ny;
@@ -125,7 +135,7 @@ pub fn dilate(grid: &Grid, backend: Threads) -> Grid {
     let plane = ny * wpr;
     let mut grown = vec![0u64; words.len()];
     backend.for_each_row(&mut grown, wpr, |r, out| {
-        if r >= rows {
+        if r >= rows || !grown_rows.holds(r % ny, r / ny) {
             return;
         }
         let (z, s) = (r / ny, r * wpr);
@@ -140,7 +150,7 @@ pub fn dilate(grid: &Grid, backend: Threads) -> Grid {
             *o = w;
         }
     });
-    Grid::from_words(*grid.spec(), grown)
+    Grid::from_words(*grid.spec(), grown).within(grown_rows)
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@
 //! surfaces therefore always leave a gap-free (26-connected) trace, which the
 //! solid fill then completes.
 
-use super::grid::{AtomicGrid, Grid, GridSpec};
+use super::grid::{AtomicGrid, Grid, GridSpec, Rows};
 use crate::exec::Threads;
 use crate::math::{Vec3, dominant_axis};
 use crate::mesh::TriMesh;
@@ -36,7 +36,20 @@ pub(crate) fn voxelize_triangles(
             for_each_touched_voxel(tri, spec.dims, |x, y, z| grid.set(x, y, z));
         }
     });
-    grid.into_grid()
+    // A triangle marks voxels within its box only (clamped to the grid).
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &t in triangles {
+        for p in mesh.corners(t as usize) {
+            let q = spec.to_grid(p);
+            lo = [lo[0].min(q.y), lo[1].min(q.z)];
+            hi = [hi[0].max(q.y), hi[1].max(q.z)];
+        }
+    }
+    let rows = match triangles.is_empty() {
+        true => Rows::NONE,
+        false => Rows::around(lo, hi, spec.dims),
+    };
+    grid.into_grid().within(rows)
 }
 
 /// Calls `visit` for every voxel the triangle (in grid units) meets, clamped

@@ -1,5 +1,6 @@
 //! Voxelization against analytic and independent oracles.
 
+use super::grid::Rows;
 use super::window::WindowedMesh;
 use super::*;
 use crate::math::{Aabb, Vec3};
@@ -287,4 +288,97 @@ fn a_window_holds_the_whole_grids_voxels_off_its_border() {
         }
         assert!(solid > 100 && solid < compared, "{solid} of {compared}");
     }
+}
+
+/// Whether every set voxel of `grid` lies in its rows.
+fn set_voxels_in_rows(grid: &Grid) -> bool {
+    let rows = grid.rows();
+    grid.words().len() == grid.words_per_row() * grid.dims()[1] * grid.dims()[2] + 1
+        && (0..grid.dims()[2]).all(|z| {
+            (0..grid.dims()[1]).all(|y| rows.holds(y, z) || grid.row(y, z).iter().all(|&w| w == 0))
+        })
+}
+
+/// `grid` with every row taken as one that may hold set voxels.
+fn all_rows(grid: &Grid) -> Grid {
+    Grid::from_words(*grid.spec(), grid.words().to_vec())
+}
+
+#[test]
+fn passes_over_the_rows_that_hold_solid_give_what_passes_over_all_rows_give() {
+    // Parts padded as a search pads them (most rows empty), a soup of
+    // random triangles, an open sheet and a window that cuts shells: the
+    // rows each producer claims hold every set voxel, and the skin, the
+    // levels, the counts and the dilation read over them alone equal those
+    // read over every row.
+    let mut rng = crate::math::unit_rng(0x5eed);
+    let mut soup = Vec::new();
+    let mut tris = Vec::new();
+    for t in 0..40u32 {
+        let c = Vec3::new(rng(), rng(), rng()) * 2.0;
+        for _ in 0..3 {
+            let p = c + Vec3::new(rng(), rng(), rng()) * 0.4;
+            soup.push([p.x as f32, p.y as f32, p.z as f32]);
+        }
+        tris.push([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    let soup = TriMesh::new(soup, tris).unwrap();
+    let mut sheet = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
+    let upper: Vec<u32> = (0..sheet.triangles().len() as u32)
+        .filter(|&t| sheet.corners(t as usize)[0].z > 0.2)
+        .collect();
+    sheet = sheet.subset(&upper);
+    let boxed = cuboid(Vec3::new(0.2, -0.3, 0.1), Vec3::new(0.5, 0.4, 0.3));
+    for (name, mesh) in [("soup", soup), ("sheet", sheet), ("box", boxed)] {
+        let tight = spec_for(&mesh, 48);
+        // Padded by a third of the grid on every side, as a part's grid is.
+        let spec = tight.crop(mesh.bounds(), 20).unwrap();
+        let solid = voxelize(&mesh, &spec, Threads::Parallel);
+        assert!(set_voxels_in_rows(&solid), "{name}");
+        let rows = solid.rows();
+        assert!(
+            !rows.is_empty() && rows != Rows::all(spec.dims),
+            "{name}: {rows:?}"
+        );
+        let full = all_rows(&solid);
+        assert_eq!(solid.count_ones(), full.count_ones(), "{name}");
+        assert!(solid.iter_ones().eq(full.iter_ones()), "{name}");
+        let (skin_rows, skin_all) = (
+            skin(&solid, Threads::Parallel),
+            skin(&full, Threads::Serial),
+        );
+        assert!(set_voxels_in_rows(&skin_rows), "{name}");
+        assert_eq!(skin_rows.words(), skin_all.words(), "{name}");
+        let grown = dilate(&solid, Threads::Parallel);
+        assert!(set_voxels_in_rows(&grown), "{name}");
+        assert_eq!(
+            grown.words(),
+            dilate(&full, Threads::Serial).words(),
+            "{name}"
+        );
+        let (limited, every) = (Solid::new(solid), Solid::new(full));
+        for level in 1..=3 {
+            let (a, b) = (
+                limited.level(level, Threads::Parallel),
+                every.level(level, Threads::Serial),
+            );
+            assert_eq!(a.prefix(), b.prefix(), "{name} level {level}");
+            assert_eq!(a.occupancy(), b.occupancy(), "{name} level {level}");
+        }
+    }
+    // A window's shells reach past it: its fill's rows hold all it fills.
+    let mesh = torus(Vec3::ZERO, 1.0, 0.35, 48, 24);
+    let whole = spec_for(&mesh, 64);
+    let windowed = WindowedMesh::new(mesh.clone(), Threads::Parallel);
+    let spec = whole
+        .crop(
+            Aabb {
+                min: Vec3::new(-0.3, -1.4, -0.5),
+                max: Vec3::new(0.3, -0.2, 0.5),
+            },
+            2,
+        )
+        .unwrap();
+    let window = windowed.voxelize(&spec, Threads::Parallel);
+    assert!(window.count_ones() > 0 && set_voxels_in_rows(&window));
 }

@@ -36,7 +36,9 @@ mod shells;
 #[cfg(test)]
 mod tests;
 
-use super::grid::{AtomicGrid, Grid, GridSpec};
+use std::sync::Mutex;
+
+use super::grid::{AtomicGrid, Grid, GridSpec, Rows};
 use crate::exec::Threads;
 use crate::math::{Vec3, floor};
 use crate::mesh::TriMesh;
@@ -61,14 +63,26 @@ pub(crate) fn fill_shells(
     backend: Threads,
 ) -> Grid {
     let out = AtomicGrid::new(*spec);
+    let written = Mutex::new(Rows::NONE);
     backend.for_each_range(shells.len(), 1, |range| {
+        let mut rows = Rows::NONE;
         for s in range {
             if !shells[s].triangles.is_empty() {
-                fill_shell(mesh, &shells[s], spec, &out, backend, Path::Cheaper);
+                rows = rows.union(fill_shell(
+                    mesh,
+                    &shells[s],
+                    spec,
+                    &out,
+                    backend,
+                    Path::Cheaper,
+                ));
             }
         }
+        let mut written = written.lock().unwrap_or_else(|e| e.into_inner());
+        *written = written.union(rows);
     });
-    out.into_grid()
+    let rows = written.into_inner().unwrap_or_else(|e| e.into_inner());
+    out.into_grid().within(rows)
 }
 
 /// A shell's bounding box in voxels, padded by one so that every column
@@ -116,13 +130,13 @@ fn fill_shell(
     out: &AtomicGrid,
     backend: Threads,
     path: Path,
-) {
+) -> Rows {
     if path == Path::Cheaper && !shell.closed && shell.triangles.len() == 1 {
         // A lone triangle: a column crosses it once or not at all, so every
         // column that crosses it abstains (odd) and every other one says
         // "outside". Nothing is filled, and a soup of large separate
         // triangles skips a block per triangle.
-        return;
+        return Rows::NONE;
     }
     let corners: Vec<[Vec3; 3]> = shell
         .triangles
@@ -144,6 +158,11 @@ fn fill_shell(
         words: (hi[0] >> 6) - (lo[0] >> 6) + 1,
         ny: hi[1] - lo[1] + 1,
         nz: hi[2] - lo[2] + 1,
+    };
+    // What is filled lies in the block.
+    let rows = Rows {
+        y: [lo[1], hi[1] + 1],
+        z: [lo[2], hi[2] + 1],
     };
     // Twice the area the shell projects onto each axis plane: about twice
     // the number of columns along that axis that cross it.
@@ -172,7 +191,7 @@ fn fill_shell(
         if sparse {
             let columns = Columns::new(axis, &corners, &block, false);
             columns.emit_parity(&block, out);
-            return;
+            return rows;
         }
         let inside = parity_along(axis, &corners, &block);
         for z in 0..block.nz {
@@ -183,7 +202,7 @@ fn fill_shell(
                 }
             }
         }
-        return;
+        return rows;
     }
     let sparse = match path {
         Path::Cheaper => {
@@ -198,7 +217,7 @@ fn fill_shell(
         // inside: a few binary searches instead of three word operations.
         if path == Path::Sparse || 3 * block.len() > DENSE_WORDS_PER_VOTE * inside_words {
             vote_sparse(&columns, &block, out);
-            return;
+            return rows;
         }
     }
     // parity[a]: parity along axis a. The three axes are independent: a
@@ -213,4 +232,5 @@ fn fill_shell(
         slot[0] = parity_along(axis, &corners, &block);
     });
     vote(&parity, &block, out);
+    rows
 }
