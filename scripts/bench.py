@@ -197,6 +197,11 @@ def scale_inputs(keep, python):
          building(folder("families-10000"), "--parts", "10000", "--families", "20", "--seed", "11")),
         ("10 000 distinct building parts", scene("distinct-10000"),
          building(folder("distinct-10000"), "--parts", "10000", "--families", "0", "--seed", "11")),
+        # The whole-buildings issue's terrain: a vertex every 3 cm (the
+        # recipe's default, 25 cm, makes 0.43 M triangles).
+        ("the 30 m terrain, 2.4 M triangles", scene("terrain-2m4"),
+         [python, ROOT / "scripts/make-building-scenes.py", "terrain", folder("terrain-2m4"),
+          "--size", "30", "--cell", "0.03", "--seed", "5"]),
     ]
 
 
@@ -206,8 +211,8 @@ def scale(a):
     load_sweep().generated(keep)
     print(f"Milliseconds, the median of {a.runs} runs, each a whole process on all cores. Inputs: "
           "`scripts/hostile-sweep.py` "
-          "(tetrahedra) and `scripts/make-building-scenes.py families` (buildings; the flags are in "
-          "`scripts/bench.py`).")
+          "(tetrahedra) and `scripts/make-building-scenes.py` (buildings and the terrain; the flags "
+          "are in `scripts/bench.py`).")
     print()
     rows = []
     for name, args, make in scale_inputs(keep, a.python):
