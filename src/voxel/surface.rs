@@ -93,7 +93,14 @@ pub(crate) fn for_each_touched_voxel(
     }
     let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
     let w = dominant_axis(normal);
-    let (u, v) = ((w + 1) % 3, (w + 2) % 3);
+    let (mut u, mut v) = ((w + 1) % 3, (w + 2) % 3);
+    // Strips are cut along the triangle's shorter side in the sweep plane:
+    // a strip costs a cut and its two sides, a cell along it a multiply-add
+    // or two, and a long thin triangle (a cylinder's side) across its
+    // strips cost a strip per cell.
+    if span[u] > span[v] {
+        std::mem::swap(&mut u, &mut v);
+    }
     let mut at = [0usize; 3];
     let mut column = |cu: usize, cv: usize, dmin: f64, dmax: f64| {
         at[u] = cu;
