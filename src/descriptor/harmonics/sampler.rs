@@ -198,6 +198,15 @@ impl SphereSampler {
                     };
                 }
             }
+            // A ring wholly outside or inside the solid (most, on a sheet
+            // or in a large solid) reads exactly 0 or 1 everywhere.
+            let (any, all) = code
+                .iter()
+                .fold((0u32, 0xff), |(any, all), &c| (any | c, all & c));
+            if any == 0 || all == 0xff {
+                out[start..start + CHUNK].fill(if any == 0 { 0.0 } else { 1.0 });
+                continue;
+            }
             let (fx, fy, fz) = (
                 &self.frac[0][start..start + CHUNK],
                 &self.frac[1][start..start + CHUNK],

@@ -92,6 +92,113 @@ fn the_folded_transform_equals_the_definition_on_arbitrary_samples() {
 }
 
 #[test]
+fn rings_of_zeros_or_ones_give_the_signature_bit_for_bit() {
+    let t = SphericalTransform::new();
+    let mut rng = crate::math::unit_rng(17);
+    for trial in 0..8 {
+        let mut f = [0.0f32; RINGS * SECTORS];
+        for (j, ring) in f.chunks_exact_mut(SECTORS).enumerate() {
+            match (j + trial) % 3 {
+                0 => ring.fill(0.0),
+                1 => ring.fill(1.0),
+                _ => ring.iter_mut().for_each(|v| *v = rng() as f32),
+            }
+        }
+        if trial == 7 {
+            f.fill(0.0);
+        }
+        let (cached, plain) = (t.signature(&f), t.signature_of_every_ring(&f));
+        assert_eq!(
+            cached.map(f32::to_bits),
+            plain.map(f32::to_bits),
+            "trial {trial}"
+        );
+    }
+}
+
+/// The samples of a sphere by their definition: each sample's eight cell
+/// corners read one by one, interpolated in f64.
+fn samples_by_definition(sampler: &SphereSampler, solid: &Solid, v: [u16; 3]) -> Vec<f64> {
+    let (offsets, fractions) = sampler.sample_tables();
+    let grid = solid.bits();
+    offsets
+        .iter()
+        .zip(&fractions)
+        .map(|(o, f)| {
+            let base = [0, 1, 2].map(|a| i64::from(v[a]) + i64::from(o[a]));
+            let corner = |dx: i64, dy: i64, dz: i64| {
+                f64::from(u8::from(grid.get(base[0] + dx, base[1] + dy, base[2] + dz)))
+            };
+            let mut value = 0.0;
+            for (dx, dy, dz) in (0..8).map(|i| (i & 1, (i >> 1) & 1, i >> 2)) {
+                let w = |d: i64, a: usize| {
+                    if d == 1 {
+                        f64::from(f[a])
+                    } else {
+                        1.0 - f64::from(f[a])
+                    }
+                };
+                value += w(dx, 0) * w(dy, 1) * w(dz, 2) * corner(dx, dy, dz);
+            }
+            value
+        })
+        .collect()
+}
+
+#[test]
+fn bit_grid_samples_are_the_trilinear_reads_inside_outside_and_across_a_solid() {
+    // A box larger than the sphere: spheres around its faces, edges and
+    // corners have rings wholly outside, wholly inside and across it, and
+    // spheres near the grid's sides leave it.
+    let spec = GridSpec {
+        origin: Vec3::splat(-20.0),
+        voxel_size: 1.0,
+        dims: [40, 40, 40],
+    };
+    let solid = Solid::new(voxelize(
+        &cuboid(Vec3::splat(-12.3), Vec3::splat(11.8)),
+        &spec,
+        Threads::Serial,
+    ));
+    let sampler = SphereSampler::new(7.4, &solid, Threads::Serial);
+    assert_eq!(sampler.level(), 0);
+    let mut uniform = [0usize; 2];
+    for v in [
+        [20, 20, 20],
+        [31, 20, 20],
+        [32, 31, 20],
+        [8, 32, 31],
+        [20, 20, 3],
+        [38, 1, 20],
+    ] {
+        let mut got = [0.0f32; RINGS * SECTORS];
+        sampler.sample(&solid, v, &mut got);
+        for (ring, want) in samples_by_definition(&sampler, &solid, v)
+            .chunks(SECTORS)
+            .enumerate()
+        {
+            let got = &got[ring * SECTORS..(ring + 1) * SECTORS];
+            for (g, w) in got.iter().zip(want) {
+                assert!(
+                    (f64::from(*g) - w).abs() < 1e-5,
+                    "voxel {v:?} ring {ring}: {g} against {w}"
+                );
+            }
+            for (k, value) in [0.0, 1.0].into_iter().enumerate() {
+                if want.iter().all(|&w| w == value) {
+                    uniform[k] += 1;
+                    assert!(
+                        got.iter().all(|&g| f64::from(g) == value),
+                        "voxel {v:?} ring {ring}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(uniform[0] > 0 && uniform[1] > 0, "{uniform:?}");
+}
+
+#[test]
 fn a_constant_has_only_degree_zero() {
     let t = SphericalTransform::new();
     let s = t.signature(&sample_fn(|_| 1.0));

@@ -24,6 +24,32 @@ pub struct SphericalTransform {
     /// with zeros to a fixed width (P_l^m is even or odd in cos theta as
     /// l + m is, so each degree needs only one of the two folds).
     legendre: Vec<[[[f32; PARITY_LANES]; HALF_RINGS]; 2]>,
+    /// [`Self::ring_coefficients`] of a ring of zeros and of a ring of ones.
+    empty_ring: [[f32; HALF_ORDERS]; 4],
+    full_ring: [[f32; HALF_ORDERS]; 4],
+}
+
+/// A ring whose samples are all 0 or all 1.
+enum Uniform {
+    Empty,
+    Full,
+}
+
+/// Whether every sample of `ring` is 0 (+0.0, as the samplers write it) or
+/// every one is 1. Folded over bits, not short-circuited, so that it
+/// vectorizes.
+fn uniform(ring: &[f32; SECTORS]) -> Option<Uniform> {
+    let one = 1.0f32.to_bits();
+    let (any, all_one) = ring.iter().fold((0u32, true), |(any, all_one), &x| {
+        (any | x.to_bits(), all_one & (x.to_bits() == one))
+    });
+    if any == 0 {
+        Some(Uniform::Empty)
+    } else if all_one {
+        Some(Uniform::Full)
+    } else {
+        None
+    }
 }
 
 impl Default for SphericalTransform {
@@ -38,6 +64,8 @@ impl SphericalTransform {
         let mut t = SphericalTransform {
             fourier: [[[0.0; HALF_ORDERS]; 4]; QUARTER_SECTORS],
             legendre: vec![[[[0.0; PARITY_LANES]; HALF_RINGS]; 2]; DEGREES],
+            empty_ring: [[0.0; HALF_ORDERS]; 4],
+            full_ring: [[0.0; HALF_ORDERS]; 4],
         };
         for k in 0..QUARTER_SECTORS {
             for i in 0..HALF_ORDERS {
@@ -59,46 +87,39 @@ impl SphericalTransform {
                 }
             }
         }
+        t.empty_ring = t.ring_coefficients(&[0.0; SECTORS]);
+        t.full_ring = t.ring_coefficients(&[1.0; SECTORS]);
         t
     }
 
     /// The per-degree energies of samples `f[j * SECTORS + k]` taken at
     /// (theta_j, phi_k), normalized as the module doc says.
     pub fn signature(&self, f: &[f32; RINGS * SECTORS]) -> Signature {
-        // Fourier coefficients per ring for m < L, folding twice. phi + pi:
-        // even orders see g = f(phi) + f(phi + pi), odd ones h = the
-        // difference. Then pi - phi: cos(m (pi - phi)) = (-1)^m cos(m phi)
-        // and sin(m (pi - phi)) = -(-1)^m sin(m phi), so each order reads
-        // the sum or the difference of g (or h) at k and HALF_SECTORS - k.
-        // Sectors 0 and QUARTER_SECTORS pair with themselves: they start the
-        // sums, with cos(m pi / 2) and sin(m pi / 2) = (-1)^i or 0.
-        // `coefficients[j][a][i]`: ring j, accumulator a (even re, even im,
-        // odd re, odd im), order 2i or 2i + 1; stored as accumulated, so that
-        // the products vectorize over i.
+        self.signature_of(f, true)
+    }
+
+    /// [`Self::signature`] with every ring transformed, uniform or not: what
+    /// the cached rings must reproduce bit for bit.
+    #[cfg(test)]
+    pub(super) fn signature_of_every_ring(&self, f: &[f32; RINGS * SECTORS]) -> Signature {
+        self.signature_of(f, false)
+    }
+
+    fn signature_of(&self, f: &[f32; RINGS * SECTORS], cached_rings: bool) -> Signature {
+        // Fourier coefficients per ring for m < L. Most rings of a sphere
+        // on a sheet or a large solid lie wholly outside or inside it: those
+        // take the coefficients of an empty or a full ring, computed once
+        // the same way.
         let mut coefficients = [[[0.0f32; HALF_ORDERS]; 4]; RINGS];
         for (j, acc) in coefficients.iter_mut().enumerate() {
-            let ring = &f[j * SECTORS..(j + 1) * SECTORS];
-            let g = |k: usize| ring[k] + ring[k + HALF_SECTORS];
-            let h = |k: usize| ring[k] - ring[k + HALF_SECTORS];
-            let (g0, gq, h0, hq) = (g(0), g(QUARTER_SECTORS), h(0), h(QUARTER_SECTORS));
-            *acc = [
-                ALTERNATING.map(|s| g0 + s * gq),
-                [0.0f32; HALF_ORDERS],
-                [h0; HALF_ORDERS],
-                ALTERNATING.map(|s| -s * hq),
-            ];
-            for k in 1..QUARTER_SECTORS {
-                let (ga, gb) = (g(k), g(HALF_SECTORS - k));
-                let (ha, hb) = (h(k), h(HALF_SECTORS - k));
-                // What each accumulator reads at this k, in its order.
-                let folded = [ga + gb, ga - gb, ha - hb, ha + hb];
-                let table = &self.fourier[k];
-                for a in 0..4 {
-                    for i in 0..HALF_ORDERS {
-                        acc[a][i] += folded[a] * table[a][i];
-                    }
-                }
-            }
+            let ring: &[f32; SECTORS] = f[j * SECTORS..(j + 1) * SECTORS]
+                .try_into()
+                .expect("a ring is SECTORS samples");
+            *acc = match uniform(ring).filter(|_| cached_rings) {
+                Some(Uniform::Empty) => self.empty_ring,
+                Some(Uniform::Full) => self.full_ring,
+                None => self.ring_coefficients(ring),
+            };
         }
         // Legendre step, folding theta and pi - theta: degrees with l + m
         // even see the sum of the two rings, the others the difference.
@@ -126,6 +147,40 @@ impl SphericalTransform {
             }
         }
         energy.map(|e| (e / (4.0 * PI)).sqrt() as f32)
+    }
+
+    /// The Fourier coefficients of one ring for m < L. phi + pi: even orders
+    /// see g = f(phi) + f(phi + pi), odd ones h = the difference. Then
+    /// pi - phi: cos(m (pi - phi)) = (-1)^m cos(m phi) and
+    /// sin(m (pi - phi)) = -(-1)^m sin(m phi), so each order reads the sum or
+    /// the difference of g (or h) at k and HALF_SECTORS - k. Sectors 0 and
+    /// QUARTER_SECTORS pair with themselves: they start the sums, with
+    /// cos(m pi / 2) and sin(m pi / 2) = (-1)^i or 0. `[a][i]`: accumulator
+    /// a (even re, even im, odd re, odd im), order 2i or 2i + 1; stored as
+    /// accumulated, so that the products vectorize over i.
+    fn ring_coefficients(&self, ring: &[f32; SECTORS]) -> [[f32; HALF_ORDERS]; 4] {
+        let g = |k: usize| ring[k] + ring[k + HALF_SECTORS];
+        let h = |k: usize| ring[k] - ring[k + HALF_SECTORS];
+        let (g0, gq, h0, hq) = (g(0), g(QUARTER_SECTORS), h(0), h(QUARTER_SECTORS));
+        let mut acc = [
+            ALTERNATING.map(|s| g0 + s * gq),
+            [0.0f32; HALF_ORDERS],
+            [h0; HALF_ORDERS],
+            ALTERNATING.map(|s| -s * hq),
+        ];
+        for k in 1..QUARTER_SECTORS {
+            let (ga, gb) = (g(k), g(HALF_SECTORS - k));
+            let (ha, hb) = (h(k), h(HALF_SECTORS - k));
+            // What each accumulator reads at this k, in its order.
+            let folded = [ga + gb, ga - gb, ha - hb, ha + hb];
+            let table = &self.fourier[k];
+            for a in 0..4 {
+                for i in 0..HALF_ORDERS {
+                    acc[a][i] += folded[a] * table[a][i];
+                }
+            }
+        }
+        acc
     }
 }
 
