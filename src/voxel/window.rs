@@ -95,6 +95,7 @@ impl WindowedMesh {
                     .filter(|&t| overlaps[t as usize] >= 2)
                     .collect(),
                 closed: s.closed,
+                one_sided: s.one_sided,
             })
             .collect();
         let touching: Vec<u32> = (0..overlaps.len() as u32)

@@ -21,10 +21,16 @@
 //! triangles.
 //!
 //! A hole in the bunny's base spoils only the vertical columns through it; the
-//! two horizontal ones still agree. Crossings are counted with a watertight
-//! rasterization rule (shared edges are owned by exactly one triangle, with
-//! edge functions evaluated in a canonical orientation) so a closed shell
-//! never produces a spurious odd column.
+//! two horizontal ones still agree. But an open shell whose triangles all
+//! face into one half-space (a terrain, a sheet, a shallow bowl) is not
+//! filled at all: it has no inside for the columns to find, and the vote
+//! would call inside what lies between its slopes and what its columns
+//! enter over its rim, above a terrain as much as below it.
+//!
+//! Crossings are counted with a watertight rasterization rule (shared edges
+//! are owned by exactly one triangle, with edge functions evaluated in a
+//! canonical orientation) so a closed shell never produces a spurious odd
+//! column.
 //!
 //! Each axis is done with bit-parallel word operations: a crossing toggles one
 //! bit where "inside" starts, and a prefix XOR along the axis turns toggles
@@ -67,7 +73,9 @@ pub(crate) fn fill_shells(
     backend.for_each_range(shells.len(), 1, |range| {
         let mut rows = Rows::NONE;
         for s in range {
-            if !shells[s].triangles.is_empty() {
+            // A shell that faces one way bounds no solid (see `Shell`):
+            // its columns could only count in what they pass over its rim.
+            if !shells[s].triangles.is_empty() && !shells[s].one_sided {
                 rows = rows.union(fill_shell(
                     mesh,
                     &shells[s],
@@ -117,7 +125,7 @@ impl Block {
 #[derive(Clone, Copy, PartialEq, Debug)]
 #[cfg_attr(not(test), allow(dead_code))]
 enum Path {
-    /// Whichever costs less (and nothing at all for a lone triangle).
+    /// Whichever costs less.
     Cheaper,
     Dense,
     Sparse,
@@ -131,13 +139,6 @@ fn fill_shell(
     backend: Threads,
     path: Path,
 ) -> Rows {
-    if path == Path::Cheaper && !shell.closed && shell.triangles.len() == 1 {
-        // A lone triangle: a column crosses it once or not at all, so every
-        // column that crosses it abstains (odd) and every other one says
-        // "outside". Nothing is filled, and a soup of large separate
-        // triangles skips a block per triangle.
-        return Rows::NONE;
-    }
     let corners: Vec<[Vec3; 3]> = shell
         .triangles
         .iter()

@@ -1,14 +1,22 @@
 //! Shells: the edge-connected components of a part, each filled on its own.
 
 use crate::exec::Threads;
+use crate::math::Vec3;
 use crate::mesh::{TriMesh, weld_vertices};
 
-/// The triangles of one edge-connected component, and whether it is closed.
+/// The triangles of one edge-connected component, whether it is closed,
+/// and whether it faces one way.
 pub(crate) struct Shell {
     /// Triangle indices into the mesh.
     pub triangles: Vec<u32>,
     /// Every edge is shared by an even number of the shell's triangles.
     pub closed: bool,
+    /// Every triangle faces into one open half-space: a terrain, a sheet, a
+    /// shallow bowl, a lone triangle. A column along that half-space's
+    /// direction crosses such a shell the same way every time, out and never
+    /// back in, so the shell bounds no solid of its own, and any column that
+    /// calls a voxel inside it is miscounting through its rim.
+    pub one_sided: bool,
 }
 
 /// Triangle indices of each shell.
@@ -56,6 +64,7 @@ pub(crate) fn shells(mesh: &TriMesh, backend: Threads) -> Vec<Shell> {
         shells.extend(distinct_shells[k].iter().map(|s| Shell {
             triangles: s.triangles.iter().map(|&t| t + first).collect(),
             closed: s.closed,
+            one_sided: s.one_sided,
         }));
     }
     shells
@@ -139,6 +148,7 @@ fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Shell> {
             shells.push(Shell {
                 triangles: Vec::new(),
                 closed: true,
+                one_sided: false,
             });
         }
         shells[shell_of_root[root] as usize].triangles.push(ti);
@@ -147,5 +157,26 @@ fn part_shells(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Shell> {
         let root = find(&mut parent, t) as usize;
         shells[shell_of_root[root] as usize].closed = false;
     }
+    for shell in shells.iter_mut().filter(|s| !s.closed) {
+        shell.one_sided = faces_one_way(positions, triangles, &shell.triangles);
+    }
     shells
+}
+
+/// Whether every triangle of `shell` with an area faces into the half-space
+/// of the shell's vector area (the sum of its area-weighted normals). A
+/// closed surface's vector area is zero, so it never does; a shell that
+/// does is told without solving for the best direction, and one that faces
+/// one way only about another direction is filled as before.
+fn faces_one_way(positions: &[[f32; 3]], triangles: &[[u32; 3]], shell: &[u32]) -> bool {
+    let normal = |t: u32| {
+        let [a, b, c] =
+            triangles[t as usize].map(|i| Vec3::from(positions[i as usize].map(f64::from)));
+        (b - a).cross(c - a)
+    };
+    let direction: Vec3 = shell.iter().map(|&t| normal(t)).sum();
+    shell.iter().all(|&t| {
+        let n = normal(t);
+        n == Vec3::ZERO || n.dot(direction) > 0.0
+    })
 }

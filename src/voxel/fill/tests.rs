@@ -265,3 +265,83 @@ fn closed_shells_are_told_from_open_ones_and_fill_alike() {
     assert!(one_axis.count_ones() > 0);
     assert_eq!(one_axis, voted(&m, &spec));
 }
+
+/// A height field over the unit square scaled by `size`, `n` cells a side,
+/// its triangles facing up (+z).
+fn height_field(n: u32, size: f64, h: impl Fn(f64, f64) -> f64) -> TriMesh {
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (size * i as f64 / n as f64, size * j as f64 / n as f64);
+            positions.push([x as f32, y as f32, h(x, y) as f32]);
+        }
+    }
+    let mut triangles = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            triangles.extend([[a, b, d], [a, d, c]]);
+        }
+    }
+    TriMesh::new(positions, triangles).unwrap()
+}
+
+#[test]
+fn a_shell_facing_one_way_fills_nothing() {
+    // Rolling terrain: the three-axis vote calls inside what its horizontal
+    // columns find between two slopes, and, where a column enters over the
+    // rim, what lies above the ground.
+    let h = |x: f64, y: f64| 0.3 * (x * 1.3).sin() * (y * 0.9).cos() + 0.1 * (x * 3.1 + y).sin();
+    let terrain = height_field(60, 6.0, h);
+    let spec = GridSpec::lattice(terrain.bounds(), 0.04);
+    let voted = filled(&terrain, &spec, Path::Dense, true);
+    let dims = spec.dims;
+    let above = (0..dims[2] as u16)
+        .flat_map(|z| {
+            (0..dims[1] as u16).flat_map(move |y| (0..dims[0] as u16).map(move |x| [x, y, z]))
+        })
+        .filter(|v| voted.get(v[0] as i64, v[1] as i64, v[2] as i64))
+        .filter(|&v| {
+            let c = spec.center(v);
+            c.z - h(c.x, c.y) > 2.0 * spec.voxel_size
+        })
+        .count();
+    assert!(
+        above > 1000,
+        "the vote alone finds {above} voxels above the ground"
+    );
+    // A shallow bowl (a cap of a sphere), and the same bowl turned over.
+    let sphere = uv_sphere(Vec3::ZERO, 1.0, 48, 96);
+    let bowl = sphere
+        .filter_triangles(|t| sphere.corners(t).iter().all(|p| p.z < -0.3))
+        .unwrap();
+    let dome = sphere
+        .filter_triangles(|t| sphere.corners(t).iter().all(|p| p.z > 0.3))
+        .unwrap();
+    for (name, m) in [("terrain", &terrain), ("bowl", &bowl), ("dome", &dome)] {
+        let found = shells(m, Threads::Serial);
+        assert!(found.iter().all(|s| !s.closed && s.one_sided), "{name}");
+        let spec = GridSpec::for_scene(m.bounds(), 96).unwrap();
+        assert_eq!(
+            fill_solid(m, &spec, Threads::Serial).count_ones(),
+            0,
+            "{name}"
+        );
+    }
+    // More than half a sphere faces every way: its holes are what the vote
+    // is for, and it is filled.
+    let holed = sphere
+        .filter_triangles(|t| sphere.corners(t).iter().all(|p| p.z > -0.5))
+        .unwrap();
+    let found = shells(&holed, Threads::Serial);
+    assert!(found.iter().all(|s| !s.closed && !s.one_sided));
+    let spec = GridSpec::for_scene(holed.bounds(), 96).unwrap();
+    assert!(fill_solid(&holed, &spec, Threads::Serial).count_ones() > 0);
+    // A closed shell never faces one way.
+    assert!(
+        shells(&sphere, Threads::Serial)
+            .iter()
+            .all(|s| s.closed && !s.one_sided)
+    );
+}
