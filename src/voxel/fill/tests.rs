@@ -338,6 +338,15 @@ fn a_shell_facing_one_way_fills_nothing() {
     assert!(found.iter().all(|s| !s.closed && !s.one_sided));
     let spec = GridSpec::for_scene(holed.bounds(), 96).unwrap();
     assert!(fill_solid(&holed, &spec, Threads::Serial).count_ones() > 0);
+    // So does a cup (a box without its lid): its walls face four ways.
+    let boxed = cuboid(Vec3::splat(-1.0), Vec3::splat(1.0));
+    let cup = boxed
+        .filter_triangles(|t| boxed.corners(t).iter().any(|p| p.z < 0.5))
+        .unwrap();
+    let found = shells(&cup, Threads::Serial);
+    assert!(found.iter().all(|s| !s.closed && !s.one_sided));
+    let spec = GridSpec::for_scene(cup.bounds(), 48).unwrap();
+    assert!(fill_solid(&cup, &spec, Threads::Serial).count_ones() > 0);
     // A closed shell never faces one way.
     assert!(
         shells(&sphere, Threads::Serial)
