@@ -13,10 +13,14 @@ plain box of its footprint and height would: that is part-in-whole, not a
 near twin). With --variants, taller and shorter variants of the template
 stand among them: a taller one holds the template whole, which the default
 search reports as "part of a larger whole", the paper's part-in-whole; score
-those scenes with --whole-copies.
+those scenes with --whole-copies. With --terrain the ground is not a slab
+but rolling terrain, one open sheet of triangles as a city model's terrain
+comes, and each tower is sunk into it to below its footprint's lowest
+corner.
 
   python3 scripts/make-city-scenes.py OUT [--seed 1] [--copies 3]
       [--twins 2] [--others 12] [--variants 0] [--ground 600] [--upright]
+      [--terrain]
 
 Needs numpy and trimesh, and a release build of the CLI (for the
 template's radius in truth.json).
@@ -84,6 +88,8 @@ def main():
     p.add_argument("--kind", choices=KINDS, help="the template's kind (default: drawn)")
     p.add_argument("--upright", action="store_true",
                    help="turn copies by quarter turns only, as a city grid's are (default: any angle)")
+    p.add_argument("--terrain", action="store_true",
+                   help="rolling terrain (an open sheet) in place of the ground slab")
     p.add_argument("--cli", default=os.path.join(here, "..", "target", "release", "fast-reject"))
     a = p.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -116,15 +122,37 @@ def main():
     side = int(np.ceil(np.sqrt(len(towers))))
     if side * lot > a.ground:
         sys.exit(f"the ground ({a.ground} m) is too small for {len(towers)} lots of {lot:.0f} m")
-    ground = block([a.ground, a.ground, 2.0], [0, 0, -2.0])
+    if a.terrain:
+        # Its own generator, so that a seed's towers and turns
+        # are those of the slab's scene.
+        phase = np.random.default_rng(a.seed + 1000).uniform(0, 2 * np.pi, 2)
+
+        def height(x, y):
+            return 4.0 * np.sin(x / 70.0 + phase[0]) * np.cos(y / 90.0 + phase[1]) + 1.5 * np.sin((x + y) / 35.0)
+        n = int(a.ground / 10) + 1
+        xs = np.linspace(-a.ground / 2, a.ground / 2, n)
+        gx, gy = np.meshgrid(xs, xs, indexing="ij")
+        idx = np.arange(n * n).reshape(n, n)
+        q = [idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()]
+        faces = np.concatenate([np.stack([q[0], q[1], q[2]], 1), np.stack([q[0], q[2], q[3]], 1)])
+        ground = trimesh.Trimesh(np.stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()], 1), faces,
+                                 process=False)
+    else:
+        ground = block([a.ground, a.ground, 2.0], [0, 0, -2.0])
     parts, truth = [ground], []
     for slot, i in enumerate(order):
         x = (slot % side - (side - 1) / 2) * lot
         y = (slot // side - (side - 1) / 2) * lot
         angle = rng.integers(4) * np.pi / 2 if a.upright else rng.uniform(0, 2 * np.pi)
         turn = trimesh.transformations.rotation_matrix(angle, [0, 0, 1])
-        turn[:3, 3] = [x, y, 0.0]
         pieces = tower(kind, w, d, h, top) if towers[i] is None else tower(*towers[i])
+        z = 0.0
+        if a.terrain:
+            # Below the terrain under every corner of the turned footprint.
+            lo, hi = trimesh.util.concatenate(pieces).bounds
+            corners = [turn[:2, :2] @ [u, v] for u in (lo[0], hi[0]) for v in (lo[1], hi[1])]
+            z = min(height(x + c[0], y + c[1]) for c in corners) - 0.5
+        turn[:3, 3] = [x, y, z]
         for piece in pieces:
             piece.apply_transform(turn)
             parts.append(piece)
