@@ -11,9 +11,9 @@
 //! 3. [`group`]: among the verified points, the best placement founds an
 //!    instance, reported where the placement puts the template's point c_T,
 //!    and claims every other placement within the template's outer radius
-//!    r_k: an occurrence owns the ball its descriptor describes, and two
-//!    occurrences whose centres are closer than that would overlap almost
-//!    entirely.
+//!    r_k that it does not lie apart from ([`Extent`]): two placements of
+//!    one copy overlap, while copies standing side by side, whose balls
+//!    overlap when the template is long or flat, lie apart.
 
 use crate::cascade::Survivor;
 use crate::math::Vec3;
@@ -103,15 +103,70 @@ pub fn local_bests(
     kept.into_iter().map(|(_, s)| s).collect()
 }
 
+/// The template's surface about c_T, to tell two placements of it apart: a
+/// plane across the line between their centres that separates their
+/// samples, with `margin` to spare for the placements' error, leaves them
+/// in two places, so they are two copies however close their centres.
+/// Without it, the template's ball alone tells, and a tower beside a tower
+/// of its kind, closer than r_k, was one copy.
+pub struct Extent {
+    /// Sample points less c_T, in template coordinates.
+    offsets: Vec<Vec3>,
+    margin: f64,
+}
+
+impl Extent {
+    /// `points` on the template's surface, about `center` (c_T), with
+    /// `margin` in scene units.
+    pub fn new(points: &[Vec3], center: Vec3, margin: f64) -> Extent {
+        Extent {
+            offsets: points.iter().map(|&p| p - center).collect(),
+            margin,
+        }
+    }
+
+    /// How far the template turned by `pose` reaches from c_T along `u`.
+    fn support(&self, pose: &[[f64; 4]; 4], u: Vec3) -> f64 {
+        // Along u in the scene is along R^T u in the template.
+        let row = |i: usize| Vec3::new(pose[i][0], pose[i][1], pose[i][2]);
+        let w = row(0) * u.x + row(1) * u.y + row(2) * u.z;
+        self.offsets
+            .iter()
+            .map(|o| o.dot(w))
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Whether the template at c_T = `a` turned by `pose_a` and at `b`
+    /// turned by `pose_b` lie apart; never without both poses.
+    pub fn apart(
+        &self,
+        (a, pose_a): (Vec3, Option<&[[f64; 4]; 4]>),
+        (b, pose_b): (Vec3, Option<&[[f64; 4]; 4]>),
+    ) -> bool {
+        let (Some(pose_a), Some(pose_b)) = (pose_a, pose_b) else {
+            return false;
+        };
+        let d = b - a;
+        let length = d.length();
+        if length <= self.margin || self.offsets.is_empty() {
+            return false;
+        }
+        let u = d / length;
+        self.support(pose_a, u) + self.support(pose_b, -u) + self.margin < length
+    }
+}
+
 /// Instances from verified points, each at the position its placement
-/// implies (best score first, ties by distance, then point index);
-/// `survivors` are all the cascade's survivors, counted as the support of the
-/// instance whose ball they fall in.
+/// implies (best score first, ties by distance, then point index), a
+/// placement within `radius` of an instance joining it unless `extent`
+/// says they lie apart; `survivors` are all the cascade's survivors,
+/// counted as the support of the nearest instance whose ball they fall in.
 pub fn group(
     verified: &[Verified],
     survivors: &[Survivor],
     position: impl Fn(u32) -> Vec3,
     radius: f64,
+    extent: Option<&Extent>,
 ) -> Vec<Instance> {
     let mut order: Vec<&Verified> = verified.iter().collect();
     order.sort_by(|a, b| {
@@ -124,7 +179,11 @@ pub fn group(
     let mut found: Vec<(Vec3, Instance)> = Vec::new();
     for v in order {
         let p = v.position;
-        if found.iter().all(|(c, _)| (*c - p).length_squared() > r2) {
+        let joins = |(c, i): &(Vec3, Instance)| {
+            (*c - p).length_squared() <= r2
+                && !extent.is_some_and(|e| e.apart((*c, i.pose.as_ref()), (p, v.pose.as_ref())))
+        };
+        if !found.iter().any(joins) {
             found.push((
                 p,
                 Instance {
@@ -142,10 +201,12 @@ pub fn group(
     }
     for s in survivors {
         let p = position(s.point);
-        if let Some((_, inst)) = found
+        let nearest = found
             .iter_mut()
-            .find(|(c, _)| (*c - p).length_squared() <= r2)
-        {
+            .map(|(c, inst)| ((*c - p).length_squared(), inst))
+            .filter(|(d2, _)| *d2 <= r2)
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((_, inst)) = nearest {
             inst.support += 1;
         }
     }
@@ -160,17 +221,38 @@ pub fn best_first(a: &Instance, b: &Instance) -> std::cmp::Ordering {
         .then(a.distance.total_cmp(&b.distance))
 }
 
+/// Whether `b` is `a` seen again: within `radius`, and not apart by
+/// `extent`.
+fn same_copy(a: &Instance, b: &Instance, radius: f64, extent: Option<&Extent>) -> bool {
+    let (pa, pb) = (Vec3::from_array(a.position), Vec3::from_array(b.position));
+    pa.distance(pb) <= radius
+        && !extent.is_some_and(|e| e.apart((pa, a.pose.as_ref()), (pb, b.pose.as_ref())))
+}
+
+/// Whether [`merge_duplicates`] would merge any of `instances`.
+pub fn any_duplicates(instances: &[Instance], radius: f64, extent: Option<&Extent>) -> bool {
+    instances.iter().enumerate().any(|(k, a)| {
+        instances[k + 1..]
+            .iter()
+            .any(|b| same_copy(a, b, radius, extent))
+    })
+}
+
 /// One instance per copy, as [`group`] keeps one per blob: of instances
-/// within `radius` of a better one ([`best_first`]), only the best is
-/// kept, with their support (a copy found from two windows of a part).
-pub fn merge_duplicates(mut instances: Vec<Instance>, radius: f64) -> Vec<Instance> {
+/// within `radius` of a better one ([`best_first`]) and not apart from it
+/// by `extent`, only the best is kept, with their support (a copy found
+/// from two windows of a part).
+pub fn merge_duplicates(
+    mut instances: Vec<Instance>,
+    radius: f64,
+    extent: Option<&Extent>,
+) -> Vec<Instance> {
     instances.sort_by(best_first);
     let mut kept: Vec<Instance> = Vec::new();
     for instance in instances {
-        let p = Vec3::from_array(instance.position);
         match kept
             .iter_mut()
-            .find(|k| Vec3::from_array(k.position).distance(p) <= radius)
+            .find(|k| same_copy(k, &instance, radius, extent))
         {
             Some(k) => k.support += instance.support,
             None => kept.push(instance),
@@ -309,7 +391,7 @@ mod tests {
                 pose: None,
             })
             .collect();
-        let g = group(&v, &s, pos, 1.0);
+        let g = group(&v, &s, pos, 1.0, None);
         assert_eq!(g.len(), 2);
         assert_eq!(g[0].position, [5.0, 0.0, 0.0]);
         assert_eq!(g[0].support, 2);
@@ -339,6 +421,35 @@ mod tests {
         let moved = apply(center + Vec3::X) - position;
         assert!((moved - Vec3::Y).length() < 1e-12, "{moved}");
         assert_eq!(t[3], [0.0, 0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn placements_lie_apart_only_when_a_plane_between_them_separates_them() {
+        // A 4 x 1 x 1 bar about c_T = its middle; poses turn it about z.
+        let points: Vec<Vec3> = (0..=40)
+            .flat_map(|i| {
+                let x = -2.0 + 0.1 * f64::from(i);
+                [-0.5, 0.5].into_iter().map(move |y| Vec3::new(x, y, 0.0))
+            })
+            .collect();
+        let extent = Extent::new(&points, Vec3::ZERO, 0.2);
+        let straight = placement_transform(&[Vec3::X, Vec3::Y, Vec3::Z], Vec3::ZERO, Vec3::ZERO);
+        let turned = placement_transform(&[Vec3::Y, -Vec3::X, Vec3::Z], Vec3::ZERO, Vec3::ZERO);
+        let at = |p: Vec3, pose| (p, Some(pose));
+        let o = Vec3::ZERO;
+        // Side by side across the bar, 1.5 apart: apart, though 1.5 is well
+        // within the bar's radius of 2.
+        assert!(extent.apart(at(o, &straight), at(Vec3::new(0.0, 1.5, 0.0), &straight)));
+        // Along it, 1.5 apart: they overlap, one copy.
+        assert!(!extent.apart(at(o, &straight), at(Vec3::new(1.5, 0.0, 0.0), &straight)));
+        // The margin: touching, or a little apart, is one copy.
+        assert!(!extent.apart(at(o, &straight), at(Vec3::new(0.0, 1.1, 0.0), &straight)));
+        // A quarter turn reaches 2 along y: 2.6 apart is not enough...
+        assert!(!extent.apart(at(o, &straight), at(Vec3::new(0.0, 2.6, 0.0), &turned)));
+        // ...2.8 is.
+        assert!(extent.apart(at(o, &straight), at(Vec3::new(0.0, 2.8, 0.0), &turned)));
+        // Without a pose, never.
+        assert!(!extent.apart((o, None), at(Vec3::new(0.0, 1.5, 0.0), &straight)));
     }
 
     fn fitted(x: f64, residual: f64) -> Instance {

@@ -84,6 +84,7 @@ pub(super) fn search_curvature(
         &survivors,
         position,
         options.group_radius * template.radius(),
+        None,
     );
     for i in &mut instances {
         i.score = None;

@@ -88,6 +88,7 @@ pub(super) async fn search_voxels(
         found.instances = merge_duplicates(
             std::mem::take(&mut found.instances),
             options.group_radius * template.radius(),
+            Some(&searcher.extent),
         );
     }
     if !options.keep_near_twins {

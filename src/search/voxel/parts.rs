@@ -412,6 +412,7 @@ impl<'a> PartSearch<'a> {
         Ok(merge_duplicates(
             instances,
             self.options.group_radius * self.template.radius(),
+            Some(&self.extent),
         ))
     }
 }

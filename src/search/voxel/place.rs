@@ -8,7 +8,8 @@ use super::whole::{Components, is_whole, template_index};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, stray_share, surface_fit};
 use crate::cascade::Survivor;
 use crate::instances::{
-    Instance, Verified, group, local_bests, placement_transform, stray_decides,
+    Instance, Verified, any_duplicates, group, local_bests, merge_duplicates, placement_transform,
+    stray_decides,
 };
 use crate::math::{Aabb, Vec3};
 use crate::scene::{PartVoxels, Scene, ScenePart};
@@ -98,6 +99,7 @@ impl PartSearch<'_> {
             survivors,
             |p| voxels.position(p),
             options.group_radius * self.template.radius(),
+            Some(&self.extent),
         );
         let landed = align_instances(
             &mut instances,
@@ -115,6 +117,12 @@ impl PartSearch<'_> {
         instances.retain(|i| i.score.is_none_or(|s| s >= options.verify_threshold));
         if options.whole_copies {
             instances.retain(|i| i.whole == Some(true));
+        }
+        // Placements of one copy kept apart before their poses were
+        // refined meet there.
+        let reach = options.group_radius * self.template.radius();
+        if any_duplicates(&instances, reach, Some(&self.extent)) {
+            instances = merge_duplicates(instances, reach, Some(&self.extent));
         }
         (instances, landed.len())
     }

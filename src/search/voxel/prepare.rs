@@ -13,6 +13,7 @@ use crate::descriptor::{
 };
 use crate::error::Result;
 use crate::exec::Threads;
+use crate::instances::Extent;
 use crate::math::{Aabb, Vec3};
 use crate::mesh::mesh_bytes;
 use crate::mesh::{TriMesh, connected_components};
@@ -43,6 +44,8 @@ pub(super) struct PartSearch<'a> {
     /// Per anchor: the verifier placed by it.
     pub(super) verifiers: Vec<Verifier>,
     pub(super) samples: SurfaceSamples,
+    /// The samples about c_T: what tells copies side by side apart.
+    pub(super) extent: Extent,
     /// The template's surface the samples are taken on (template
     /// coordinates): what a whole copy's own part must lie on.
     pub(super) surface: TriMesh,
@@ -100,6 +103,12 @@ impl<'a> PartSearch<'a> {
             voxel,
             template.radii()[0],
         );
+        let samples = template_samples(&surface, &template, scene.backend());
+        let extent = Extent::new(
+            samples.points(),
+            template.center(),
+            APART_MARGIN_VOXELS * voxel,
+        );
         Ok(PartSearch {
             scene,
             options,
@@ -110,7 +119,8 @@ impl<'a> PartSearch<'a> {
             template_centroid,
             transform,
             verifiers,
-            samples: template_samples(&surface, &template, scene.backend()),
+            samples,
+            extent,
             surface,
             max_hidden,
             two_sided: template.parts() == Parts::Components,
@@ -227,6 +237,12 @@ fn template_samples(
 
 /// Template surface samples for the pose refinement.
 const ALIGN_SAMPLES: usize = 1024;
+
+/// Two placements lie apart only with this many voxels between them: a
+/// placement before its pose is refined is off by a voxel or two, and one
+/// copy must not become two (a thin plate's placements a voxel off along
+/// its normal).
+const APART_MARGIN_VOXELS: f64 = 2.0;
 
 /// What a voxel search holds besides the part it searches: the scene's
 /// mesh, the template's surface and voxel grids and the run tables of the
