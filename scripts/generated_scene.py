@@ -16,6 +16,19 @@ def random_turn(rng):
     return trimesh.transformations.quaternion_matrix(q)
 
 
+def height_field_mesh(side, n, height):
+    """A square sheet `side` wide about the origin, of n x n vertices lifted
+    by `height(x, y)` (on arrays), two triangles a cell: one open shell, as
+    a city model's or a survey's terrain comes."""
+    xs = np.linspace(-side / 2, side / 2, n)
+    gx, gy = np.meshgrid(xs, xs, indexing="ij")
+    vertices = np.stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
 def template_report(cli, template_path, *extra):
     """The CLI's `template` entry (center, radius) for the template searched
     in a scene of itself; `extra` are further CLI arguments."""

@@ -30,11 +30,14 @@ Needs numpy and trimesh; --model names a file of ../shared/models
 import argparse
 import json
 import os
+import sys
 
 import numpy as np
 import trimesh
 
 here = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, here)
+from generated_scene import height_field_mesh  # noqa: E402
 shared = os.environ.get("FAST_REJECT_SHARED", os.path.join(here, "..", "..", "shared"))
 
 
@@ -71,14 +74,7 @@ def height(x, y):
 
 
 def terrain(args, rng, t):
-    n = int(round(args.size / args.cell)) + 1
-    xs = np.linspace(-args.size / 2, args.size / 2, n)
-    gx, gy = np.meshgrid(xs, xs, indexing="ij")
-    vertices = np.stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()], axis=1)
-    idx = np.arange(n * n).reshape(n, n)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
-    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    ground = trimesh.Trimesh(vertices, faces, process=False)
+    ground = height_field_mesh(args.size, int(round(args.size / args.cell)) + 1, height)
     placed = []
     for _ in range(20):
         m = trimesh.transformations.random_rotation_matrix(rng.random(3))

@@ -33,7 +33,7 @@ import numpy as np
 import trimesh
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from generated_scene import template_report, write_scene  # noqa: E402
+from generated_scene import height_field_mesh, template_report, write_scene  # noqa: E402
 
 here = os.path.dirname(os.path.abspath(__file__))
 
@@ -129,14 +129,7 @@ def main():
 
         def height(x, y):
             return 4.0 * np.sin(x / 70.0 + phase[0]) * np.cos(y / 90.0 + phase[1]) + 1.5 * np.sin((x + y) / 35.0)
-        n = int(a.ground / 10) + 1
-        xs = np.linspace(-a.ground / 2, a.ground / 2, n)
-        gx, gy = np.meshgrid(xs, xs, indexing="ij")
-        idx = np.arange(n * n).reshape(n, n)
-        q = [idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()]
-        faces = np.concatenate([np.stack([q[0], q[1], q[2]], 1), np.stack([q[0], q[2], q[3]], 1)])
-        ground = trimesh.Trimesh(np.stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()], 1), faces,
-                                 process=False)
+        ground = height_field_mesh(a.ground, int(a.ground / 10) + 1, height)
     else:
         ground = block([a.ground, a.ground, 2.0], [0, 0, -2.0])
     parts, truth = [ground], []
