@@ -220,6 +220,11 @@ impl SurfaceSamples {
     pub fn points(&self) -> &[Vec3] {
         &self.points
     }
+
+    /// The principal axes of their spread.
+    pub fn axes(&self) -> [Vec3; 3] {
+        self.axes
+    }
 }
 
 /// A scene's triangles near an occurrence, bucketed in a uniform grid for

@@ -104,23 +104,36 @@ pub fn local_bests(
 }
 
 /// The template's surface about c_T, to tell two placements of it apart: a
-/// plane across the line between their centres that separates their
-/// samples, with `margin` to spare for the placements' error, leaves them
-/// in two places, so they are two copies however close their centres.
-/// Without it, the template's ball alone tells, and a tower beside a tower
-/// of its kind, closer than r_k, was one copy.
+/// plane that separates their samples, with `margin` to spare for the
+/// placements' error, leaves them in two places, so they are two copies
+/// however close their centres. Without it, the template's ball alone
+/// tells, and a tower beside a tower of its kind, closer than r_k, was one
+/// copy. The planes tried lie across the line between the centres and
+/// across the template's axes as each pose turns them: a CAD part's faces
+/// are square to its own axes or its principal ones, and where c_T lies
+/// on one face, copies turned half way stand diagonally to each other.
 pub struct Extent {
     /// Sample points less c_T, in template coordinates.
     offsets: Vec<Vec3>,
+    /// Directions in template coordinates whose planes are tried.
+    axes: Vec<Vec3>,
     margin: f64,
 }
 
 impl Extent {
     /// `points` on the template's surface, about `center` (c_T), with
-    /// `margin` in scene units.
-    pub fn new(points: &[Vec3], center: Vec3, margin: f64) -> Extent {
+    /// `margin` in scene units; `axes` (template coordinates) are tried
+    /// besides the template's own x, y and z.
+    pub fn new(points: &[Vec3], center: Vec3, axes: &[Vec3], margin: f64) -> Extent {
+        let mut tried = vec![Vec3::X, Vec3::Y, Vec3::Z];
+        tried.extend(
+            axes.iter()
+                .map(|a| a.normalize_or_zero())
+                .filter(|a| *a != Vec3::ZERO),
+        );
         Extent {
             offsets: points.iter().map(|&p| p - center).collect(),
+            axes: tried,
             margin,
         }
     }
@@ -151,8 +164,21 @@ impl Extent {
         if length <= self.margin || self.offsets.is_empty() {
             return false;
         }
-        let u = d / length;
-        self.support(pose_a, u) + self.support(pose_b, -u) + self.margin < length
+        let turned = |pose: &[[f64; 4]; 4], e: Vec3| {
+            Vec3::new(pose[0][0], pose[0][1], pose[0][2]).dot(e) * Vec3::X
+                + Vec3::new(pose[1][0], pose[1][1], pose[1][2]).dot(e) * Vec3::Y
+                + Vec3::new(pose[2][0], pose[2][1], pose[2][2]).dot(e) * Vec3::Z
+        };
+        let across = std::iter::once(d / length).chain(
+            self.axes
+                .iter()
+                .flat_map(|&e| [turned(pose_a, e), turned(pose_b, e)]),
+        );
+        across.into_iter().any(|w| {
+            // Facing from a to b.
+            let w = if d.dot(w) < 0.0 { -w } else { w };
+            self.support(pose_a, w) + self.support(pose_b, -w) + self.margin < d.dot(w)
+        })
     }
 }
 
@@ -432,7 +458,7 @@ mod tests {
                 [-0.5, 0.5].into_iter().map(move |y| Vec3::new(x, y, 0.0))
             })
             .collect();
-        let extent = Extent::new(&points, Vec3::ZERO, 0.2);
+        let extent = Extent::new(&points, Vec3::ZERO, &[], 0.2);
         let straight = placement_transform(&[Vec3::X, Vec3::Y, Vec3::Z], Vec3::ZERO, Vec3::ZERO);
         let turned = placement_transform(&[Vec3::Y, -Vec3::X, Vec3::Z], Vec3::ZERO, Vec3::ZERO);
         let at = |p: Vec3, pose| (p, Some(pose));
@@ -448,6 +474,9 @@ mod tests {
         assert!(!extent.apart(at(o, &straight), at(Vec3::new(0.0, 2.6, 0.0), &turned)));
         // ...2.8 is.
         assert!(extent.apart(at(o, &straight), at(Vec3::new(0.0, 2.8, 0.0), &turned)));
+        // Side by side and along: the line between the centres crosses
+        // the bars, but a plane square to y separates them.
+        assert!(extent.apart(at(o, &straight), at(Vec3::new(3.0, 1.5, 0.0), &straight)));
         // Without a pose, never.
         assert!(!extent.apart((o, None), at(Vec3::new(0.0, 1.5, 0.0), &straight)));
     }

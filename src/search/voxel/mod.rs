@@ -85,11 +85,9 @@ pub(super) async fn search_voxels(
     let (template, lattice) = (&searcher.template, &searcher.lattice);
     if matches!(template.parts(), Parts::Shells(_)) {
         // A shell inside a larger part is searched with it and alone.
-        found.instances = merge_duplicates(
-            std::mem::take(&mut found.instances),
-            options.group_radius * template.radius(),
-            Some(&searcher.extent),
-        );
+        let reach = options.group_radius * template.radius();
+        let instances = std::mem::take(&mut found.instances);
+        found.instances = merge_duplicates(instances, reach, Some(&searcher.extent));
     }
     if !options.keep_near_twins {
         let in_scene = matches!(source, TemplateSource::Selection { .. });

@@ -107,6 +107,7 @@ impl<'a> PartSearch<'a> {
         let extent = Extent::new(
             samples.points(),
             template.center(),
+            &samples.axes(),
             APART_MARGIN_VOXELS * voxel,
         );
         Ok(PartSearch {
