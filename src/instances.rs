@@ -15,6 +15,9 @@
 //!    one copy overlap, while copies standing side by side, whose balls
 //!    overlap when the template is long or flat, lie apart.
 
+use glam::DMat3;
+
+use crate::align::Rigid;
 use crate::cascade::Survivor;
 use crate::math::Vec3;
 
@@ -138,11 +141,11 @@ impl Extent {
         }
     }
 
-    /// How far the template turned by `pose` reaches from c_T along `u`.
-    fn support(&self, pose: &[[f64; 4]; 4], u: Vec3) -> f64 {
+    /// How far the template turned by `rotation` reaches from c_T along
+    /// `u`.
+    fn support(&self, rotation: &DMat3, u: Vec3) -> f64 {
         // Along u in the scene is along R^T u in the template.
-        let row = |i: usize| Vec3::new(pose[i][0], pose[i][1], pose[i][2]);
-        let w = row(0) * u.x + row(1) * u.y + row(2) * u.z;
+        let w = rotation.transpose() * u;
         self.offsets
             .iter()
             .map(|o| o.dot(w))
@@ -164,22 +167,27 @@ impl Extent {
         if length <= self.margin || self.offsets.is_empty() {
             return false;
         }
-        let turned = |pose: &[[f64; 4]; 4], e: Vec3| {
-            Vec3::new(pose[0][0], pose[0][1], pose[0][2]).dot(e) * Vec3::X
-                + Vec3::new(pose[1][0], pose[1][1], pose[1][2]).dot(e) * Vec3::Y
-                + Vec3::new(pose[2][0], pose[2][1], pose[2][2]).dot(e) * Vec3::Z
-        };
-        let across = std::iter::once(d / length).chain(
-            self.axes
-                .iter()
-                .flat_map(|&e| [turned(pose_a, e), turned(pose_b, e)]),
+        let (turn_a, turn_b) = (
+            Rigid::from_rows(pose_a).rotation,
+            Rigid::from_rows(pose_b).rotation,
         );
-        across.into_iter().any(|w| {
+        let mut across = std::iter::once(d / length)
+            .chain(self.axes.iter().flat_map(|&e| [turn_a * e, turn_b * e]));
+        across.any(|w| {
             // Facing from a to b.
             let w = if d.dot(w) < 0.0 { -w } else { w };
-            self.support(pose_a, w) + self.support(pose_b, -w) + self.margin < d.dot(w)
+            self.support(&turn_a, w) + self.support(&turn_b, -w) + self.margin < d.dot(w)
         })
     }
+}
+
+/// A placement: c_T's position and, once known, the pose.
+type Placement<'a> = (Vec3, Option<&'a [[f64; 4]; 4]>);
+
+/// Whether placement `b` is placement `a` seen again: within `radius`, and
+/// not apart by `extent`.
+fn same_copy(a: Placement, b: Placement, radius: f64, extent: Option<&Extent>) -> bool {
+    a.0.distance_squared(b.0) <= radius * radius && !extent.is_some_and(|e| e.apart(a, b))
 }
 
 /// Instances from verified points, each at the position its placement
@@ -206,8 +214,7 @@ pub fn group(
     for v in order {
         let p = v.position;
         let joins = |(c, i): &(Vec3, Instance)| {
-            (*c - p).length_squared() <= r2
-                && !extent.is_some_and(|e| e.apart((*c, i.pose.as_ref()), (p, v.pose.as_ref())))
+            same_copy((*c, i.pose.as_ref()), (p, v.pose.as_ref()), radius, extent)
         };
         if !found.iter().any(joins) {
             found.push((
@@ -247,44 +254,52 @@ pub fn best_first(a: &Instance, b: &Instance) -> std::cmp::Ordering {
         .then(a.distance.total_cmp(&b.distance))
 }
 
-/// Whether `b` is `a` seen again: within `radius`, and not apart by
-/// `extent`.
-fn same_copy(a: &Instance, b: &Instance, radius: f64, extent: Option<&Extent>) -> bool {
-    let (pa, pb) = (Vec3::from_array(a.position), Vec3::from_array(b.position));
-    pa.distance(pb) <= radius
-        && !extent.is_some_and(|e| e.apart((pa, a.pose.as_ref()), (pb, b.pose.as_ref())))
-}
-
-/// Whether [`merge_duplicates`] would merge any of `instances`.
-pub fn any_duplicates(instances: &[Instance], radius: f64, extent: Option<&Extent>) -> bool {
-    instances.iter().enumerate().any(|(k, a)| {
-        instances[k + 1..]
-            .iter()
-            .any(|b| same_copy(a, b, radius, extent))
-    })
+/// Where an instance stands.
+fn placement(i: &Instance) -> Placement<'_> {
+    (Vec3::from_array(i.position), i.pose.as_ref())
 }
 
 /// One instance per copy, as [`group`] keeps one per blob: of instances
 /// within `radius` of a better one ([`best_first`]) and not apart from it
 /// by `extent`, only the best is kept, with their support (a copy found
-/// from two windows of a part).
+/// from two windows of a part). The kept ones stay in their order.
 pub fn merge_duplicates(
-    mut instances: Vec<Instance>,
+    instances: Vec<Instance>,
     radius: f64,
     extent: Option<&Extent>,
 ) -> Vec<Instance> {
-    instances.sort_by(best_first);
-    let mut kept: Vec<Instance> = Vec::new();
-    for instance in instances {
-        match kept
-            .iter_mut()
-            .find(|k| same_copy(k, &instance, radius, extent))
-        {
-            Some(k) => k.support += instance.support,
-            None => kept.push(instance),
+    let mut order: Vec<usize> = (0..instances.len()).collect();
+    order.sort_by(|&a, &b| best_first(&instances[a], &instances[b]));
+    let mut support: Vec<usize> = instances.iter().map(|i| i.support).collect();
+    let mut merged = vec![false; instances.len()];
+    let mut kept: Vec<usize> = Vec::new();
+    for k in order {
+        let seen = |&&j: &&usize| {
+            same_copy(
+                placement(&instances[j]),
+                placement(&instances[k]),
+                radius,
+                extent,
+            )
+        };
+        match kept.iter().find(seen) {
+            Some(&j) => {
+                support[j] += instances[k].support;
+                merged[k] = true;
+            }
+            None => kept.push(k),
         }
     }
-    kept
+    instances
+        .into_iter()
+        .zip(support)
+        .zip(merged)
+        .filter(|(_, merged)| !merged)
+        .map(|((instance, support), _)| Instance {
+            support,
+            ..instance
+        })
+        .collect()
 }
 
 /// A residual this far above float rounding, as a share of r_k, is still
@@ -479,6 +494,30 @@ mod tests {
         assert!(extent.apart(at(o, &straight), at(Vec3::new(3.0, 1.5, 0.0), &straight)));
         // Without a pose, never.
         assert!(!extent.apart((o, None), at(Vec3::new(0.0, 1.5, 0.0), &straight)));
+    }
+
+    #[test]
+    fn duplicates_merge_into_the_best_and_the_kept_keep_their_order() {
+        let at = |x: f64, score: f64| Instance {
+            position: [x, 0.0, 0.0],
+            distance: 0.0,
+            score: Some(score),
+            support: 1,
+            pose: None,
+            residual: None,
+            whole: None,
+            stray: None,
+        };
+        let merged = merge_duplicates(
+            vec![at(0.0, 0.7), at(5.0, 0.8), at(0.3, 0.9), at(0.5, 0.6)],
+            0.4,
+            None,
+        );
+        // 0.0 and 0.5 lie within 0.4 of 0.3, the best of the three; 0.5 is
+        // not within 0.4 of 0.0, but it joins the best, not a chain.
+        let mut best = at(0.3, 0.9);
+        best.support = 3;
+        assert_eq!(merged, vec![at(5.0, 0.8), best]);
     }
 
     fn fitted(x: f64, residual: f64) -> Instance {

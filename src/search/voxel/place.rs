@@ -8,8 +8,7 @@ use super::whole::{Components, is_whole, template_index};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, stray_share, surface_fit};
 use crate::cascade::Survivor;
 use crate::instances::{
-    Instance, Verified, any_duplicates, group, local_bests, merge_duplicates, placement_transform,
-    stray_decides,
+    Instance, Verified, group, local_bests, merge_duplicates, placement_transform, stray_decides,
 };
 use crate::math::{Aabb, Vec3};
 use crate::scene::{PartVoxels, Scene, ScenePart};
@@ -121,10 +120,10 @@ impl PartSearch<'_> {
         // Placements of one copy kept apart before their poses were
         // refined meet there.
         let reach = options.group_radius * self.template.radius();
-        if any_duplicates(&instances, reach, Some(&self.extent)) {
-            instances = merge_duplicates(instances, reach, Some(&self.extent));
-        }
-        (instances, landed.len())
+        (
+            merge_duplicates(instances, reach, Some(&self.extent)),
+            landed.len(),
+        )
     }
 
     /// Says of each instance that passes the meshes' verdict whether it is
