@@ -83,6 +83,7 @@ pub(crate) mod instances;
 pub mod math;
 pub mod mesh;
 pub(crate) mod options;
+pub mod repeats;
 pub mod scene;
 pub mod search;
 #[cfg(feature = "internals")]
@@ -109,6 +110,7 @@ pub type Backend = exec::Threads;
 pub use instances::Instance;
 pub use mesh::TriMesh;
 pub use mesh::io::load;
+pub use repeats::{Family, RepeatCopy, find_repeats};
 pub use scene::{Scene, SceneOptions};
 pub use search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
 pub use template::TemplateSource;

@@ -16,6 +16,27 @@ use crate::exec::Threads;
 /// weld and the joining use `backend`'s threads.
 pub fn connected_components(mesh: &TriMesh, backend: Threads) -> Vec<Vec<u32>> {
     let (ids, welded) = weld_vertices_on(mesh.positions(), backend);
+    components_through(mesh, &ids, welded, backend)
+}
+
+/// The pieces as the file stores them: triangles joined through the
+/// vertices they index, unwelded. A CAD body's faces, or copies that
+/// overlap with coincident vertices, stay apart; in order of their first
+/// triangle, triangles ascending.
+pub fn stored_pieces(mesh: &TriMesh, backend: Threads) -> Vec<Vec<u32>> {
+    let ids: Vec<u32> = (0..mesh.positions().len() as u32).collect();
+    components_through(mesh, &ids, ids.len(), backend)
+}
+
+/// The components of triangles joined through shared `ids` (a vertex's
+/// number among `count`).
+fn components_through(
+    mesh: &TriMesh,
+    ids: &[u32],
+    count: usize,
+    backend: Threads,
+) -> Vec<Vec<u32>> {
+    let welded = count;
     let parent: Vec<AtomicU32> = (0..welded as u32).map(AtomicU32::new).collect();
     let triangles = mesh.triangles();
     backend.for_each_range(triangles.len(), 1 << 14, |range| {

@@ -18,7 +18,7 @@ mod weld;
 
 pub use bounding_sphere::{Sphere, minimal_bounding_sphere};
 pub use closest_point::{ClosestPoint, closest_point_on_triangle};
-pub use components::connected_components;
+pub use components::{connected_components, stored_pieces};
 pub(crate) use vertex_numbering::VertexNumbering;
 pub(crate) use weld::FxHasher;
 pub use weld::{weld_vertices, weld_vertices_on};

@@ -2,6 +2,7 @@
 
 mod folder_resolver;
 mod progress;
+mod repeats;
 mod table;
 
 use std::path::{Path, PathBuf};
@@ -33,6 +34,8 @@ struct Cli {
 enum Command {
     /// Search SCENE for a template model or for a part picked with a sphere.
     Match(Box<MatchArgs>),
+    /// List the parts SCENE repeats as rigid copies, without a template.
+    Repeats(repeats::RepeatsArgs),
     /// Run on the small scene and template embedded in this program.
     Demo {
         /// Print the result as JSON.
@@ -92,6 +95,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Match(args) => run_match(*args),
+        Command::Repeats(args) => repeats::run_repeats(args),
         Command::Demo { json } => run_demo(json),
     };
     match result {

@@ -13,7 +13,6 @@
 //! - `work`: what searching the distinct parts takes, judged from a sample
 //!   first and refused past the limit.
 
-mod congruent_parts;
 mod grid;
 mod near_vertices;
 mod parts;
@@ -33,10 +32,10 @@ use crate::descriptor::LayerDevice;
 use crate::error::Result;
 use crate::instances::{best_first, merge_duplicates, refuse_near_twins};
 use crate::options::MatchOptions;
+use crate::repeats::congruent_parts;
 use crate::scene::{Parts, Scene};
 use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
-use congruent_parts::congruent_parts;
 use place::moved_instance;
 use prepare::PartSearch;
 use waves::Found;
@@ -71,11 +70,11 @@ pub(super) async fn search_voxels(
     let mut found = Found::default();
     for (k, copy) in copies.iter().enumerate() {
         match (copy, &searched[k]) {
-            (Some((original, motion)), _) => {
-                let moved = searched[*original]
+            (Some(copy), _) => {
+                let moved = searched[copy.original]
                     .iter()
                     .flat_map(|f| &f.instances)
-                    .map(|instance| moved_instance(instance, motion));
+                    .map(|instance| moved_instance(instance, &copy.motion));
                 found.instances.extend(moved);
             }
             (None, Some(part)) => found.merge(part),

@@ -117,20 +117,25 @@ impl Local {
         )
     }
 
-    /// The rigid motion taking `self` onto `other` vertex by vertex, if
-    /// every vertex lands within the tolerance.
-    fn motion_to(&self, other: &Local, pair: (usize, usize)) -> Option<Rigid> {
+    /// The rigid motion taking `self` onto `other` vertex by vertex, and
+    /// the farthest a vertex lands from its copy's, if every vertex lands
+    /// within the tolerance.
+    fn motion_to(&self, other: &Local, pair: (usize, usize)) -> Option<(Rigid, f64)> {
         let rotation = other.frame(pair) * self.frame(pair).transpose();
         let motion = Rigid {
             rotation,
             translation: other.centroid - rotation * self.centroid,
         };
         let tolerance = self.tolerance(other);
-        self.vertices
-            .iter()
-            .zip(&other.vertices)
-            .all(|(&p, &q)| motion.apply(p).distance(q) <= tolerance)
-            .then_some(motion)
+        let mut residual: f64 = 0.0;
+        for (&p, &q) in self.vertices.iter().zip(&other.vertices) {
+            let off = motion.apply(p).distance(q);
+            if off > tolerance {
+                return None;
+            }
+            residual = residual.max(off);
+        }
+        Some((motion, residual))
     }
 }
 
@@ -231,15 +236,22 @@ const KEPT_BYTES_PER_TRIANGLE: usize = 12;
 /// beside the kept originals, and enough to keep the threads busy.
 const BATCH_TRIANGLES: usize = 1 << 18;
 
-/// For each of `parts` (triangle lists of `mesh`), `None` where it is
-/// searched, or the earlier part it copies and the motion from that part
-/// to it. Only parts that are searched are copied from. Parts are numbered
-/// with `backend`, and the same copies are found with either.
-pub(super) fn congruent_parts(
-    mesh: &TriMesh,
-    parts: &[&[u32]],
-    backend: Threads,
-) -> Vec<Option<(usize, Rigid)>> {
+/// A part that is a rigid copy of an earlier one, vertex for vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CopyOf {
+    /// The earlier part, itself a copy of none.
+    pub original: usize,
+    /// The motion from the original to this part.
+    pub motion: Rigid,
+    /// The farthest a vertex of the original, moved, lands from this
+    /// part's: float rounding for an exact copy.
+    pub residual: f64,
+}
+
+/// For each of `parts` (triangle lists of `mesh`), `None` where it copies
+/// no earlier part (the search's originals), or what it copies. Parts are
+/// numbered with `backend`, and the same copies are found with either.
+pub fn congruent_parts(mesh: &TriMesh, parts: &[&[u32]], backend: Threads) -> Vec<Option<CopyOf>> {
     let kept_limit = KEPT_BYTES_PER_TRIANGLE * mesh.triangles().len();
     congruent_parts_keeping(mesh, parts, backend, kept_limit)
 }
@@ -251,7 +263,7 @@ fn congruent_parts_keeping(
     parts: &[&[u32]],
     backend: Threads,
     kept_limit: usize,
-) -> Vec<Option<(usize, Rigid)>> {
+) -> Vec<Option<CopyOf>> {
     let mut copies = vec![None; parts.len()];
     // A copy has as many triangles as its original: a part alone in its
     // count is neither, and is not numbered at all.
@@ -324,7 +336,7 @@ fn original_of(
     pattern: &[u32],
     mesh: &TriMesh,
     parts: &[&[u32]],
-) -> Option<(usize, Rigid)> {
+) -> Option<CopyOf> {
     same_pattern
         .close_to(local)
         .into_iter()
@@ -340,7 +352,11 @@ fn original_of(
             (their_pattern.as_slice() == pattern)
                 .then(|| there.motion_to(local, original.pair))
                 .flatten()
-                .map(|m| (original.part, m))
+                .map(|(motion, residual)| CopyOf {
+                    original: original.part,
+                    motion,
+                    residual,
+                })
         })
 }
 
@@ -384,10 +400,10 @@ mod tests {
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
         let copies = congruent_parts(&scene, &lists, Threads::Serial);
-        let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|(j, _)| j)).collect();
+        let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|c| c.original)).collect();
         assert_eq!(originals, [None, Some(0), None, None, None, Some(0)]);
         // The motion takes the first ring onto the second.
-        let (_, motion) = copies[1].unwrap();
+        let motion = copies[1].unwrap().motion;
         for p in ring.positions() {
             let p = Vec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
             let q = turn * p + Vec3::new(5.0, -3.0, 2.0);
@@ -432,7 +448,7 @@ mod tests {
         let originals = |mesh: &TriMesh, backend| -> Vec<Option<usize>> {
             congruent_parts(mesh, &lists, backend)
                 .iter()
-                .map(|c| c.map(|(j, _)| j))
+                .map(|c| c.map(|c| c.original))
                 .collect()
         };
         let expected = [
@@ -453,7 +469,7 @@ mod tests {
         let read_again: Vec<Option<usize>> =
             congruent_parts_keeping(&scene, &lists, Threads::Parallel, 0)
                 .iter()
-                .map(|c| c.map(|(j, _)| j))
+                .map(|c| c.map(|c| c.original))
                 .collect();
         assert_eq!(read_again, expected);
     }
@@ -494,7 +510,7 @@ mod tests {
         let found: Vec<(usize, usize)> = copies
             .iter()
             .enumerate()
-            .filter_map(|(i, c)| c.map(|(j, _)| (i, j)))
+            .filter_map(|(i, c)| c.map(|c| (i, c.original)))
             .collect();
         // Box 500 is the two copies' original.
         assert_eq!(found, [(n, 500), (n + 1, 500)]);

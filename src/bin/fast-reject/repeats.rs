@@ -1,0 +1,73 @@
+//! `fast-reject repeats`: the parts a scene repeats, found without a
+//! template.
+
+use std::path::PathBuf;
+
+use fast_reject::exec::Threads;
+use fast_reject::{Family, find_repeats};
+
+#[derive(clap::Args)]
+pub struct RepeatsArgs {
+    /// The scene: .glb, .gltf, .obj, .ply or .stl.
+    scene: PathBuf,
+    /// Print the families as one JSON object (the RESULT format of
+    /// bench/evaluate_families.py).
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
+    let start = std::time::Instant::now();
+    let mesh = super::load_file(&args.scene)?;
+    let loaded = start.elapsed().as_secs_f64() * 1e3;
+    let families = find_repeats(&mesh, Threads::Parallel);
+    let found = start.elapsed().as_secs_f64() * 1e3 - loaded;
+    if args.json {
+        let value = serde_json::json!({
+            "families": families.iter().map(family_json).collect::<Vec<_>>(),
+            "timings_ms": { "load": loaded, "repeats": found },
+        });
+        println!("{value}");
+        return Ok(());
+    }
+    let repeated: usize = families
+        .iter()
+        .map(|f| f.triangles() * f.copies.len())
+        .sum();
+    println!(
+        "{} repeated parts, {} copies, {repeated} of {} triangles ({:.0} ms to load, {:.0} ms to find)",
+        families.len(),
+        families.iter().map(|f| f.copies.len()).sum::<usize>(),
+        mesh.triangles().len(),
+        loaded,
+        found
+    );
+    println!(
+        "{:>6} {:>7} {:>9} {:>6} {:>12} {:>10}",
+        "family", "copies", "triangles", "pieces", "radius", "residual"
+    );
+    for (k, f) in families.iter().enumerate() {
+        let residual = f.copies.iter().map(|c| c.residual).fold(0.0, f64::max);
+        println!(
+            "{k:>6} {:>7} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
+            f.copies.len(),
+            f.triangles(),
+            f.pieces,
+            f.radius
+        );
+    }
+    Ok(())
+}
+
+fn family_json(family: &Family) -> serde_json::Value {
+    serde_json::json!({
+        "center": family.center.to_array(),
+        "radius": family.radius,
+        "triangles": family.triangles(),
+        "pieces": family.pieces,
+        "copies": family.copies.iter().map(|c| serde_json::json!({
+            "pose": c.pose,
+            "residual": c.residual,
+        })).collect::<Vec<_>>(),
+    })
+}

@@ -1,0 +1,343 @@
+//! Parts that repeat, found without a template.
+//!
+//! CAD and BIM exports reach the web flattened: every copy of a bolt or a
+//! light fitting is stored again, already moved into place. Each copy
+//! keeps its source mesh's triangles in their order, so a rigid copy is
+//! found vertex for vertex ([`congruent_parts`]): the scene's connected
+//! pieces are grouped by the motion that takes one onto another, and
+//! pieces that repeat together, at the same relative pose, are one part
+//! (`bodies`): a CAD body arrives as tens of unwelded face pieces, and a
+//! user counts the body.
+
+mod bodies;
+mod congruent;
+mod overlaps;
+
+pub use congruent::{CopyOf, congruent_parts};
+
+use crate::exec::Threads;
+use crate::math::Vec3;
+use crate::mesh::{
+    TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere, stored_pieces,
+    weld_vertices_on,
+};
+
+/// One place a repeated part stands.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RepeatCopy {
+    /// The motion from the family's representative (its first copy, where
+    /// it stands in the scene) to this copy: a row-major 4x4, as an
+    /// instance's pose.
+    pub pose: [[f64; 4]; 4],
+    /// The farthest a vertex of the representative, moved by `pose`,
+    /// lands from this copy's: float rounding for an exact copy.
+    pub residual: f64,
+    /// The copy's triangles, ascending.
+    pub triangles: Vec<u32>,
+}
+
+/// A part that occurs more than once, and every copy of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Family {
+    /// The centre of the representative's minimal bounding sphere, in the
+    /// scene: the point a copy's pose moves onto that copy's own.
+    pub center: Vec3,
+    /// That sphere's radius.
+    pub radius: f64,
+    /// How many pieces a copy was matched as: its connected components,
+    /// welded, or one for a copy taken out of a component it shares with
+    /// other copies.
+    pub pieces: usize,
+    /// The copies, the representative first (its pose the identity).
+    pub copies: Vec<RepeatCopy>,
+}
+
+impl Family {
+    /// The triangles each copy has.
+    pub fn triangles(&self) -> usize {
+        self.copies[0].triangles.len()
+    }
+}
+
+/// The repeated parts of `mesh`: families of two copies or more, the one
+/// with the most triangles in all first, each copy's triangles taken by no
+/// other family. Mirror images are not copies (no rigid motion takes one
+/// onto the other).
+pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
+    let pieces = pieces_of(mesh, backend);
+    let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
+    let copies = congruent_parts(mesh, &lists, backend);
+    let groups = bodies::bodies(mesh, &pieces, &copies);
+    let mut families: Vec<Family> = groups
+        .into_iter()
+        .map(|group| family_of(mesh, &pieces, group))
+        .collect();
+    families.sort_by_key(|f| std::cmp::Reverse(f.triangles() * f.copies.len()));
+    families
+}
+
+/// The pieces to match: the connected components (welded, so that a body
+/// split along seams is one), except where a component that copies
+/// nothing and that nothing copies is itself copies of one body
+/// ([`overlaps`]): there, those copies.
+fn pieces_of(mesh: &TriMesh, backend: Threads) -> Vec<Vec<u32>> {
+    let components = connected_components(mesh, backend);
+    let lists: Vec<&[u32]> = components.iter().map(|c| c.as_slice()).collect();
+    let copies = congruent_parts(mesh, &lists, backend);
+    let mut repeats = vec![false; components.len()];
+    for (c, copy) in copies.iter().enumerate() {
+        if let Some(copy) = copy {
+            repeats[c] = true;
+            repeats[copy.original] = true;
+        }
+    }
+    if repeats.iter().all(|&r| r) {
+        return components;
+    }
+    let mut component_of = vec![0u32; mesh.triangles().len()];
+    for (c, triangles) in components.iter().enumerate() {
+        for &t in triangles {
+            component_of[t as usize] = c as u32;
+        }
+    }
+    // A stored piece lies in one component: the weld only joins.
+    let mut stored: Vec<Vec<Vec<u32>>> = vec![Vec::new(); components.len()];
+    for piece in stored_pieces(mesh, backend) {
+        let c = component_of[piece[0] as usize] as usize;
+        if !repeats[c] {
+            stored[c].push(piece);
+        }
+    }
+    let (welded, _) = weld_vertices_on(mesh.positions(), backend);
+    let mut pieces = Vec::with_capacity(components.len());
+    for ((component, repeats), stored) in components.into_iter().zip(repeats).zip(stored) {
+        match (!repeats)
+            .then(|| overlaps::copies_within(mesh, &stored, &welded))
+            .flatten()
+        {
+            Some(copies) => pieces.extend(copies),
+            None => pieces.push(component),
+        }
+    }
+    pieces.sort_by_key(|piece| piece[0]);
+    pieces
+}
+
+/// The family of a body's copies: each copy's pieces, its pose and
+/// residual.
+fn family_of(mesh: &TriMesh, pieces: &[Vec<u32>], group: bodies::Body) -> Family {
+    let copies: Vec<RepeatCopy> = group
+        .copies
+        .into_iter()
+        .map(|copy| {
+            let mut triangles: Vec<u32> = copy
+                .pieces
+                .iter()
+                .flat_map(|&p| pieces[p].iter().copied())
+                .collect();
+            triangles.sort_unstable();
+            RepeatCopy {
+                pose: copy.pose.to_rows(),
+                residual: copy.residual,
+                triangles,
+            }
+        })
+        .collect();
+    let sphere = bounding_sphere(mesh, &copies[0].triangles);
+    Family {
+        center: sphere.0,
+        radius: sphere.1,
+        pieces: group.pieces,
+        copies,
+    }
+}
+
+/// The minimal bounding sphere of `triangles`' vertices: centre, radius.
+fn bounding_sphere(mesh: &TriMesh, triangles: &[u32]) -> (Vec3, f64) {
+    let mut numbering = VertexNumbering::for_part(mesh, triangles);
+    let mut vertices = Vec::new();
+    for &t in triangles {
+        for v in mesh.triangles()[t as usize] {
+            if numbering.number(v).1 {
+                vertices.push(mesh.vertex(v));
+            }
+        }
+    }
+    minimal_bounding_sphere(&vertices).map_or((Vec3::ZERO, 0.0), |s| (s.center, s.radius))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::shapes::cuboid;
+    use glam::DQuat;
+
+    /// A box with one corner pulled out: no turn maps it onto itself.
+    fn lopsided(min: Vec3) -> TriMesh {
+        let far = min + Vec3::new(1.0, 2.0, 3.0);
+        cuboid(min, far)
+            .map_positions(|p| {
+                if p == far {
+                    p + Vec3::new(0.4, 0.2, 0.5)
+                } else {
+                    p
+                }
+            })
+            .unwrap()
+    }
+
+    fn turn(i: usize) -> DQuat {
+        let a = 0.7 + 1.1 * i as f64;
+        DQuat::from_axis_angle(Vec3::new(a.sin(), a.cos(), 0.5).normalize(), a)
+    }
+
+    fn placed(mesh: &TriMesh, turn: DQuat, shift: Vec3) -> TriMesh {
+        mesh.map_positions(|p| turn * p + shift).unwrap()
+    }
+
+    fn scene_of(parts: &[TriMesh]) -> TriMesh {
+        let mut scene = parts[0].clone();
+        for part in &parts[1..] {
+            scene.append(part);
+        }
+        scene
+    }
+
+    /// Where `pose` moves `p`.
+    fn moved(pose: &[[f64; 4]; 4], p: Vec3) -> Vec3 {
+        let row = |r: &[f64; 4]| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3];
+        Vec3::new(row(&pose[0]), row(&pose[1]), row(&pose[2]))
+    }
+
+    #[test]
+    fn turned_copies_are_one_family_with_the_poses_they_were_placed_at() {
+        let part = lopsided(Vec3::ZERO);
+        let mut parts: Vec<TriMesh> = (0..4)
+            .map(|i| placed(&part, turn(i), Vec3::new(10.0 * i as f64, 0.0, 0.0)))
+            .collect();
+        // A part found once is no family.
+        parts.push(cuboid(Vec3::splat(-9.0), Vec3::new(-8.0, -7.0, -4.0)));
+        let scene = scene_of(&parts);
+        let families = find_repeats(&scene, Threads::Parallel);
+        assert_eq!(families.len(), 1);
+        let family = &families[0];
+        assert_eq!(
+            (family.copies.len(), family.pieces, family.triangles()),
+            (4, 1, 12)
+        );
+        // Each pose takes the first copy onto the one placed there.
+        let far = Vec3::new(1.4, 2.2, 3.5);
+        let first = turn(0) * far;
+        for (i, copy) in family.copies.iter().enumerate() {
+            let want = turn(i) * far + Vec3::new(10.0 * i as f64, 0.0, 0.0);
+            assert!(moved(&copy.pose, first).distance(want) < 1e-5, "copy {i}");
+            assert!(copy.residual < 1e-5);
+            assert_eq!(
+                copy.triangles,
+                (12 * i as u32..12 * i as u32 + 12).collect::<Vec<_>>()
+            );
+        }
+    }
+
+    #[test]
+    fn mirror_images_and_near_twins_are_not_copies() {
+        let part = lopsided(Vec3::ZERO);
+        let mirrored = part
+            .map_positions(|p| Vec3::new(-p.x, p.y, p.z) + Vec3::new(10.0, 0.0, 0.0))
+            .unwrap();
+        // A corner moved by a thousandth of the part's size.
+        let twin = part
+            .map_positions(|p| {
+                let p = if p == Vec3::ZERO {
+                    Vec3::splat(0.004)
+                } else {
+                    p
+                };
+                turn(1) * p + Vec3::new(20.0, 0.0, 0.0)
+            })
+            .unwrap();
+        let scene = scene_of(&[part, mirrored, twin]);
+        assert!(find_repeats(&scene, Threads::Serial).is_empty());
+    }
+
+    #[test]
+    fn pieces_that_move_together_are_one_part() {
+        // A body of two pieces apart, three times; a second kind of piece
+        // stands at a different place beside each copy, so it moves with
+        // none.
+        let body = scene_of(&[
+            lopsided(Vec3::ZERO),
+            cuboid(Vec3::new(3.0, 0.0, 0.0), Vec3::new(3.5, 0.5, 4.0)),
+        ]);
+        let loner = cuboid(Vec3::ZERO, Vec3::new(0.3, 0.6, 0.9));
+        let mut parts = Vec::new();
+        for i in 0..3 {
+            let shift = Vec3::new(0.0, 20.0 * i as f64, 0.0);
+            parts.push(placed(&body, turn(i), shift));
+            let beside = Vec3::new(-3.0 - i as f64, 0.0, 0.0);
+            parts.push(placed(&loner, DQuat::IDENTITY, shift + beside));
+        }
+        let families = find_repeats(&scene_of(&parts), Threads::Parallel);
+        let shapes: Vec<(usize, usize, usize)> = families
+            .iter()
+            .map(|f| (f.copies.len(), f.pieces, f.triangles()))
+            .collect();
+        assert_eq!(shapes, [(3, 2, 24), (3, 1, 12)]);
+    }
+
+    #[test]
+    fn copies_that_touch_at_shared_vertices_are_taken_apart() {
+        // Three bricks in a row, each face to face with the next: welded,
+        // they are one component.
+        let brick = lopsided(Vec3::ZERO)
+            .map_positions(|p| p.min(Vec3::new(1.0, 2.0, 3.0)))
+            .unwrap();
+        let row: Vec<TriMesh> = (0..3)
+            .map(|i| placed(&brick, DQuat::IDENTITY, Vec3::new(i as f64, 0.0, 0.0)))
+            .collect();
+        let scene = scene_of(&row);
+        assert_eq!(connected_components(&scene, Threads::Serial).len(), 1);
+        let families = find_repeats(&scene, Threads::Serial);
+        assert_eq!(families.len(), 1);
+        assert_eq!(families[0].copies.len(), 3);
+    }
+
+    #[test]
+    fn a_part_stored_as_two_congruent_halves_is_one_part() {
+        // A closed box stored as two open trays, each the other turned
+        // over: they meet rim to rim, one surface cut in two.
+        let closed = cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 1.0));
+        let tray = closed.subset(&[0, 1, 4, 5, 6, 7, 8, 9, 10, 11]);
+        let over = tray
+            .map_positions(|p| Vec3::new(p.x, 2.0 - p.y, 2.0 - p.z))
+            .unwrap();
+        let scene = scene_of(&[tray, over]);
+        assert_eq!(stored_pieces(&scene, Threads::Serial).len(), 2);
+        assert_eq!(connected_components(&scene, Threads::Serial).len(), 1);
+        assert!(find_repeats(&scene, Threads::Serial).is_empty());
+    }
+
+    #[test]
+    fn overlapping_copies_of_a_body_with_a_piece_twice_are_taken_apart() {
+        // A body of three welded pieces, a bar and two equal cubes on it,
+        // and a second copy a unit along, its bar face to face with the
+        // first's: one component, four cubes, two bars.
+        let body = scene_of(&[
+            lopsided(Vec3::ZERO),
+            cuboid(Vec3::new(0.0, 0.0, 3.0), Vec3::new(1.0, 1.0, 4.0)),
+            cuboid(Vec3::new(0.0, 1.0, 3.0), Vec3::new(1.0, 2.0, 4.0)),
+        ]);
+        let next = placed(&body, DQuat::IDENTITY, Vec3::X);
+        let scene = scene_of(&[body, next]);
+        assert_eq!(connected_components(&scene, Threads::Serial).len(), 1);
+        let families = find_repeats(&scene, Threads::Serial);
+        assert_eq!(families.len(), 1);
+        let family = &families[0];
+        // Welded on its own, a copy's three stored pieces are one.
+        assert_eq!(
+            (family.copies.len(), family.pieces, family.triangles()),
+            (2, 1, 36)
+        );
+        assert!(moved(&family.copies[1].pose, Vec3::ZERO).distance(Vec3::X) < 1e-6);
+    }
+}

@@ -1,0 +1,217 @@
+//! Repeated parts found without a template, scored against the shared
+//! scenes' `families.json` as `../shared/bench/evaluate_families.py`
+//! scores them (positions, then turns up to the part's symmetries), so
+//! that the suite needs no Python.
+
+mod common;
+
+use common::scene_dir;
+use fast_reject::exec::Threads;
+use fast_reject::mesh::io::load;
+use fast_reject::{Family, find_repeats};
+use serde_json::Value;
+
+type Matrix = [[f64; 4]; 4];
+type Point = [f64; 3];
+
+fn matrix(value: &Value) -> Matrix {
+    let rows = value.as_array().unwrap();
+    std::array::from_fn(|r| std::array::from_fn(|c| rows[r][c].as_f64().unwrap()))
+}
+
+fn point(value: &Value) -> Point {
+    std::array::from_fn(|i| value[i].as_f64().unwrap())
+}
+
+fn apply(m: &Matrix, p: Point) -> Point {
+    std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
+}
+
+fn distance(a: Point, b: Point) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// A truth unit: a family, or a rigid group of them.
+struct Unit {
+    id: String,
+    members: Vec<String>,
+    center: Point,
+    radius: f64,
+    copies: Vec<Matrix>,
+    symmetries: Vec<Matrix>,
+    /// The reference points a pose must carry right: the centre, and the
+    /// ends of the axes no turn symmetry hides.
+    points: Vec<Point>,
+}
+
+fn unit(value: &Value, members: Vec<String>) -> Unit {
+    let center = point(&value["center"]);
+    let radius = value["radius"].as_f64().unwrap();
+    let axes = value["symmetry_axes"].as_array().unwrap();
+    let mut points = vec![center];
+    let along = |d: Point| std::array::from_fn(|i| center[i] + radius * d[i]);
+    match axes.len() {
+        0 => points.extend([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(along)),
+        1 => points.push(along(point(&axes[0]["direction"]))),
+        _ => {}
+    }
+    Unit {
+        id: value["id"].as_str().unwrap().to_owned(),
+        members,
+        center,
+        radius,
+        copies: value["copies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| matrix(&c["transform"]))
+            .collect(),
+        symmetries: value["symmetries"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(matrix)
+            .collect(),
+        points,
+    }
+}
+
+fn units(truth: &Value) -> Vec<Unit> {
+    let families = truth["families"].as_array().unwrap();
+    let mut units: Vec<Unit> = families
+        .iter()
+        .map(|f| unit(f, vec![f["id"].as_str().unwrap().to_owned()]))
+        .collect();
+    for group in truth["rigid_groups"].as_array().unwrap() {
+        let members = group["families"].as_array().unwrap();
+        let members = members
+            .iter()
+            .map(|m| m.as_str().unwrap().to_owned())
+            .collect();
+        units.push(unit(group, members));
+    }
+    units
+}
+
+/// Whether `found` is `unit`: as many copies, one to one where the truth
+/// has them, and each pose carrying the reference points, taken where the
+/// representative stands, onto the copy's, up to a symmetry.
+fn matches(found: &Family, unit: &Unit) -> bool {
+    let tolerance = 0.05 * unit.radius;
+    let center = [found.center.x, found.center.y, found.center.z];
+    if found.copies.len() != unit.copies.len() || (found.radius - unit.radius).abs() > tolerance {
+        return false;
+    }
+    let at = |pose: &Matrix| apply(pose, center);
+    let truth_of = |pose: &Matrix| {
+        unit.copies
+            .iter()
+            .position(|t| distance(at(pose), apply(t, unit.center)) <= tolerance)
+    };
+    let Some(first) = truth_of(&found.copies[0].pose) else {
+        return false;
+    };
+    let mut taken = vec![false; unit.copies.len()];
+    for copy in &found.copies {
+        let Some(j) = truth_of(&copy.pose) else {
+            return false;
+        };
+        let turned_right = unit.symmetries.iter().any(|s| {
+            unit.points.iter().all(|&q| {
+                let ours = apply(&copy.pose, apply(&unit.copies[first], q));
+                distance(ours, apply(&unit.copies[j], apply(s, q))) <= tolerance
+            })
+        });
+        if taken[j] || !turned_right {
+            return false;
+        }
+        taken[j] = true;
+    }
+    true
+}
+
+/// The truth families `families` leaves unfound, and the result families
+/// that are two truth units at once.
+fn score(scene: &str, families: &[Family]) -> (Vec<String>, usize) {
+    let path = scene_dir(scene).join("families.json");
+    let truth: Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    let units = units(&truth);
+    let mut found: Vec<&str> = Vec::new();
+    let mut merged = 0;
+    for family in families {
+        let hits: Vec<&Unit> = units.iter().filter(|u| matches(family, u)).collect();
+        merged += usize::from(hits.len() > 1);
+        found.extend(
+            hits.iter()
+                .flat_map(|u| u.members.iter().map(String::as_str)),
+        );
+    }
+    let missed = units
+        .iter()
+        .filter(|u| u.members == [u.id.clone()] && !found.contains(&u.id.as_str()))
+        .map(|u| u.id.clone())
+        .collect();
+    (missed, merged)
+}
+
+fn repeats_of(scene: &str) -> Vec<Family> {
+    let bytes = std::fs::read(scene_dir(scene).join("scene.glb")).unwrap();
+    find_repeats(&load(&bytes, None).unwrap(), Threads::Parallel)
+}
+
+#[test]
+fn every_repeated_part_of_the_saw_is_found_with_its_poses() {
+    for scene in ["real-saw-roller", "real-saw-fin"] {
+        let families = repeats_of(scene);
+        assert_eq!(score(scene, &families), (vec![], 0), "{scene}");
+        for family in &families {
+            assert!(
+                family
+                    .copies
+                    .iter()
+                    .all(|c| c.residual < 1e-5 * family.radius)
+            );
+        }
+    }
+}
+
+#[test]
+fn the_trucks_wheel_pairs_are_one_family_of_two() {
+    let families = repeats_of("real-truck-wheels");
+    assert_eq!(score("real-truck-wheels", &families), (vec![], 0));
+}
+
+#[test]
+fn the_scorer_refuses_a_family_moved_off_its_copies() {
+    // A scorer that cannot fail proves nothing: shifting one copy by a
+    // tenth of the part's size, or dropping one, loses that family.
+    let mut families = repeats_of("real-truck-wheels");
+    let (mut shifted, mut dropped) = (families.clone(), families.clone());
+    shifted[0].copies[1].pose[0][3] += 0.1 * families[0].radius;
+    dropped[0].copies.pop();
+    for broken in [shifted, dropped] {
+        assert_eq!(score("real-truck-wheels", &broken).0.len(), 1);
+    }
+    // So is a turn about the representative's centre that the part does
+    // not have: a third of a turn about a diagonal.
+    let c = families[0].center;
+    let c = [c.x, c.y, c.z];
+    let pose = families[0].copies[1].pose;
+    let turned = |p: Point| {
+        apply(
+            &pose,
+            std::array::from_fn(|i| c[i] + p[(i + 2) % 3] - c[(i + 2) % 3]),
+        )
+    };
+    let origin = turned([0.0; 3]);
+    for (i, row) in families[0].copies[1].pose.iter_mut().take(3).enumerate() {
+        for (k, unit) in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+            .into_iter()
+            .enumerate()
+        {
+            row[k] = turned(unit)[i] - origin[i];
+        }
+        row[3] = origin[i];
+    }
+    assert_eq!(score("real-truck-wheels", &families).0.len(), 1);
+}
