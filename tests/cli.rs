@@ -457,3 +457,38 @@ fn progress_goes_to_standard_error_when_asked_and_only_then() {
     };
     assert_eq!(report(&quiet), report(&told));
 }
+
+#[test]
+fn repeats_lists_the_demo_mugs_as_one_part_of_three_copies() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/scene.glb");
+    let out = cli(&["repeats", scene, "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let families = v["families"].as_array().unwrap();
+    assert_eq!(families.len(), 1);
+    let copies = families[0]["copies"].as_array().unwrap();
+    assert_eq!(copies.len(), 3);
+    // Each pose is a rigid motion, and the three put the mug in three
+    // places.
+    let mut places = Vec::new();
+    for copy in copies {
+        let m: Vec<Vec<f64>> = serde_json::from_value(copy["pose"].clone()).unwrap();
+        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        assert!((det - 1.0).abs() < 1e-9, "{m:?}");
+        places.push([m[0][3], m[1][3], m[2][3]]);
+    }
+    assert!(
+        places
+            .iter()
+            .enumerate()
+            .all(|(i, p)| places[..i].iter().all(|q| p != q))
+    );
+
+    let out = cli(&["repeats", scene]);
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 repeated part, 3 copies"));
+    let out = cli(&["repeats", "/no/such/scene.glb"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("cannot read"), "{}", stderr(&out));
+}

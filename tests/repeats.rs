@@ -37,6 +37,9 @@ struct Unit {
     members: Vec<String>,
     center: Point,
     radius: f64,
+    /// A copy's triangles: a part found in pieces, or short of a piece,
+    /// is not the part.
+    triangles: usize,
     copies: Vec<Matrix>,
     symmetries: Vec<Matrix>,
     /// The reference points a pose must carry right: the centre, and the
@@ -60,6 +63,7 @@ fn unit(value: &Value, members: Vec<String>) -> Unit {
         members,
         center,
         radius,
+        triangles: value["triangles"].as_u64().unwrap() as usize,
         copies: value["copies"]
             .as_array()
             .unwrap()
@@ -93,13 +97,16 @@ fn units(truth: &Value) -> Vec<Unit> {
     units
 }
 
-/// Whether `found` is `unit`: as many copies, one to one where the truth
-/// has them, and each pose carrying the reference points, taken where the
+/// Whether `found` is `unit`: as many copies of as many triangles, one to
+/// one where the truth has them, and each pose carrying the reference points, taken where the
 /// representative stands, onto the copy's, up to a symmetry.
 fn matches(found: &Family, unit: &Unit) -> bool {
     let tolerance = 0.05 * unit.radius;
     let center = [found.center.x, found.center.y, found.center.z];
-    if found.copies.len() != unit.copies.len() || (found.radius - unit.radius).abs() > tolerance {
+    if found.copies.len() != unit.copies.len()
+        || found.triangles() != unit.triangles
+        || (found.radius - unit.radius).abs() > tolerance
+    {
         return false;
     }
     let at = |pose: &Matrix| apply(pose, center);

@@ -7,7 +7,8 @@
 //! bodies: as a rigid group of an instanced model, the pieces of a copy
 //! move as one.
 
-use std::collections::BTreeMap;
+use std::cell::OnceCell;
+use std::collections::{BTreeMap, HashMap};
 
 use super::CopyOf;
 use crate::align::Rigid;
@@ -48,12 +49,30 @@ struct PieceFamily {
     /// Where each copy puts the first corner, by x: the copies a pose may
     /// be are found by bisection.
     by_first_corner: Vec<(f64, usize)>,
+    /// The original's vertices and their mean, for a copy whose motion is
+    /// another's composed with a symmetry of the piece.
+    vertices: Vec<Vec3>,
+    centroid: Vec3,
+    /// Where each copy puts the centroid, by x.
+    by_centroid: Vec<(f64, usize)>,
+    /// The original's vertices by cell of the tolerance's size, built
+    /// when a pose is first looked up through a symmetry.
+    cells: OnceCell<HashMap<[i64; 3], Vec<usize>>>,
 }
 
 impl PieceFamily {
+    /// The copy that `pose` moves the original onto, if any: where the
+    /// copy's pose moves the corners as `pose` does, or, a symmetric piece
+    /// being stored turned, where the two poses differ by a symmetry of
+    /// the piece.
+    fn copy_at(&self, pose: &Rigid) -> Option<usize> {
+        self.copy_at_same_pose(pose)
+            .or_else(|| self.copy_at_through_symmetry(pose))
+    }
+
     /// The copy whose pose moves the corners within the tolerance of
     /// where `pose` moves them, if any.
-    fn copy_at(&self, pose: &Rigid) -> Option<usize> {
+    fn copy_at_same_pose(&self, pose: &Rigid) -> Option<usize> {
         let want = self.corners.map(|c| pose.apply(c));
         let from = self
             .by_first_corner
@@ -69,6 +88,54 @@ impl PieceFamily {
                     .zip(&want)
                     .all(|(&c, &w)| p.apply(c).distance(w) <= self.tolerance)
             })
+    }
+
+    /// The copy that `pose` moves the original onto where the copy's own
+    /// pose differs from `pose` by a symmetry of the piece: it moves the
+    /// centroid to the same place, and the motion between the two takes
+    /// every vertex of the original onto one of its vertices.
+    fn copy_at_through_symmetry(&self, pose: &Rigid) -> Option<usize> {
+        let want = pose.apply(self.centroid);
+        let from = self
+            .by_centroid
+            .partition_point(|&(x, _)| x < want.x - self.tolerance);
+        let back = pose.inverse();
+        self.by_centroid[from..]
+            .iter()
+            .take_while(|&&(x, _)| x <= want.x + self.tolerance)
+            .map(|&(_, j)| j)
+            .find(|&j| {
+                let p = &self.copies[j].1;
+                p.apply(self.centroid).distance(want) <= self.tolerance
+                    && self.is_symmetry(&compose(&back, p))
+            })
+    }
+
+    /// Whether `motion` takes every vertex of the original onto one of
+    /// its vertices.
+    fn is_symmetry(&self, motion: &Rigid) -> bool {
+        let cell = |p: Vec3| (p / self.tolerance).floor().as_i64vec3().to_array();
+        let cells = self.cells.get_or_init(|| {
+            let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+            for (i, &v) in self.vertices.iter().enumerate() {
+                cells.entry(cell(v)).or_default().push(i);
+            }
+            cells
+        });
+        self.vertices.iter().all(|&v| {
+            let moved = motion.apply(v);
+            let [x, y, z] = cell(moved);
+            (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    (-1..=1).any(|dz| {
+                        cells.get(&[x + dx, y + dy, z + dz]).is_some_and(|near| {
+                            near.iter()
+                                .any(|&i| self.vertices[i].distance(moved) <= self.tolerance)
+                        })
+                    })
+                })
+            })
+        })
     }
 
     /// For each of `anchor`'s copies, the copies of this family that move
@@ -160,8 +227,15 @@ fn piece_families(
         .into_values()
         .map(|copies| {
             let original = &pieces[copies[0].0];
-            let vertices = original.iter().flat_map(|&t| mesh.corners(t as usize));
-            let bounds = Aabb::around(vertices).expect("a piece has triangles");
+            let mut ids: Vec<u32> = original
+                .iter()
+                .flat_map(|&t| mesh.triangles()[t as usize])
+                .collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let vertices: Vec<Vec3> = ids.into_iter().map(|v| mesh.vertex(v)).collect();
+            let centroid = vertices.iter().copied().sum::<Vec3>() / vertices.len() as f64;
+            let bounds = Aabb::around(vertices.iter().copied()).expect("a piece has triangles");
             let size = bounds.max.distance(bounds.min);
             let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
             let corners = corners(bounds);
@@ -171,11 +245,21 @@ fn piece_families(
                 .map(|(j, (_, pose, _))| (pose.apply(corners[0]).x, j))
                 .collect();
             by_first_corner.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut by_centroid: Vec<(f64, usize)> = copies
+                .iter()
+                .enumerate()
+                .map(|(j, (_, pose, _))| (pose.apply(centroid).x, j))
+                .collect();
+            by_centroid.sort_by(|a, b| a.0.total_cmp(&b.0));
             PieceFamily {
                 copies,
                 corners,
                 tolerance: POSE_TOLERANCE * size + 8.0 * f64::from(f32::EPSILON) * magnitude,
                 by_first_corner,
+                vertices,
+                centroid,
+                by_centroid,
+                cells: OnceCell::new(),
             }
         })
         .collect()

@@ -286,6 +286,33 @@ mod tests {
     }
 
     #[test]
+    fn a_symmetric_piece_stored_turned_still_moves_with_its_body() {
+        // A body of a lopsided piece and a plain box beside it. In the
+        // second copy the box is stored turned half way about its own
+        // axis first: the same place, but vertex for vertex its motion is
+        // the body's composed with the box's symmetry.
+        let box_piece = cuboid(Vec3::new(3.0, 0.0, 0.0), Vec3::new(3.5, 0.5, 4.0));
+        let half_turn = DQuat::from_rotation_z(std::f64::consts::PI);
+        let axis = Vec3::new(3.25, 0.25, 0.0);
+        let turned_box = box_piece
+            .map_positions(|p| half_turn * (p - axis) + axis)
+            .unwrap();
+        let shift = Vec3::new(0.0, 20.0, 0.0);
+        let scene = scene_of(&[
+            lopsided(Vec3::ZERO),
+            box_piece,
+            placed(&lopsided(Vec3::ZERO), turn(1), shift),
+            placed(&turned_box, turn(1), shift),
+        ]);
+        let families = find_repeats(&scene, Threads::Serial);
+        let shapes: Vec<(usize, usize, usize)> = families
+            .iter()
+            .map(|f| (f.copies.len(), f.pieces, f.triangles()))
+            .collect();
+        assert_eq!(shapes, [(2, 2, 24)]);
+    }
+
+    #[test]
     fn copies_that_touch_at_shared_vertices_are_taken_apart() {
         // Three bricks in a row, each face to face with the next: welded,
         // they are one component.

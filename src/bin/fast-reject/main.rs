@@ -348,7 +348,7 @@ fn print_report(
 /// Writes `text` and a newline to standard output. A closed pipe (`| head`)
 /// or a full disk is an error to report, not a panic as in `println!`: the
 /// report did not reach its reader.
-fn write_out(text: &str) -> Result<(), String> {
+pub(crate) fn write_out(text: &str) -> Result<(), String> {
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())

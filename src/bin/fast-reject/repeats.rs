@@ -27,36 +27,42 @@ pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
             "families": families.iter().map(family_json).collect::<Vec<_>>(),
             "timings_ms": { "load": loaded, "repeats": found },
         });
-        println!("{value}");
-        return Ok(());
+        return super::write_out(&value.to_string());
     }
+    super::write_out(&table(&families, mesh.triangles().len(), loaded, found))
+}
+
+/// The families as a table, the largest share of the scene first.
+fn table(families: &[Family], triangles: usize, loaded: f64, found: f64) -> String {
+    use std::fmt::Write;
     let repeated: usize = families
         .iter()
         .map(|f| f.triangles() * f.copies.len())
         .sum();
-    println!(
-        "{} repeated parts, {} copies, {repeated} of {} triangles ({:.0} ms to load, {:.0} ms to find)",
+    let copies: usize = families.iter().map(|f| f.copies.len()).sum();
+    let mut text = format!(
+        "{} repeated part{}, {copies} copies, {repeated} of {triangles} triangles \
+         ({loaded:.0} ms to load, {found:.0} ms to find)\n",
         families.len(),
-        families.iter().map(|f| f.copies.len()).sum::<usize>(),
-        mesh.triangles().len(),
-        loaded,
-        found
+        if families.len() == 1 { "" } else { "s" },
     );
-    println!(
+    let _ = write!(
+        text,
         "{:>6} {:>7} {:>9} {:>6} {:>12} {:>10}",
         "family", "copies", "triangles", "pieces", "radius", "residual"
     );
     for (k, f) in families.iter().enumerate() {
         let residual = f.copies.iter().map(|c| c.residual).fold(0.0, f64::max);
-        println!(
-            "{k:>6} {:>7} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
+        let _ = write!(
+            text,
+            "\n{k:>6} {:>7} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
             f.copies.len(),
             f.triangles(),
             f.pieces,
             f.radius
         );
     }
-    Ok(())
+    text
 }
 
 fn family_json(family: &Family) -> serde_json::Value {
