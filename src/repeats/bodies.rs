@@ -30,7 +30,7 @@ pub(super) struct Body {
     pub copies: Vec<BodyCopy>,
 }
 
-const IDENTITY: Rigid = Rigid {
+pub(super) const IDENTITY: Rigid = Rigid {
     rotation: DMat3::IDENTITY,
     translation: Vec3::ZERO,
 };
@@ -178,7 +178,7 @@ impl PieceFamily {
 }
 
 /// `a` after `b`.
-fn compose(a: &Rigid, b: &Rigid) -> Rigid {
+pub(super) fn compose(a: &Rigid, b: &Rigid) -> Rigid {
     Rigid {
         rotation: a.rotation * b.rotation,
         translation: a.apply(b.translation),

@@ -43,11 +43,20 @@ struct Local {
 
 impl Local {
     fn new(mesh: &TriMesh, triangles: &[u32]) -> (Local, Vec<u32>) {
+        Local::numbered(mesh, triangles, false)
+    }
+
+    /// The part numbered with each triangle's corners read in order, or
+    /// in reverse (`reversed`: a mirror image whose triangles were turned
+    /// over to face outwards again is numbered as its original was).
+    fn numbered(mesh: &TriMesh, triangles: &[u32], reversed: bool) -> (Local, Vec<u32>) {
         let mut numbering = VertexNumbering::for_part(mesh, triangles);
         let mut vertices = Vec::new();
         let mut pattern = Vec::with_capacity(3 * triangles.len());
         for &t in triangles {
-            for v in mesh.triangles()[t as usize] {
+            let [a, b, c] = mesh.triangles()[t as usize];
+            let corners = if reversed { [a, c, b] } else { [a, b, c] };
+            for v in corners {
                 let (local, first_use) = numbering.number(v);
                 if first_use {
                     vertices.push(mesh.vertex(v));
@@ -117,11 +126,22 @@ impl Local {
         )
     }
 
-    /// The rigid motion taking `self` onto `other` vertex by vertex, and
-    /// the farthest a vertex lands from its copy's, if every vertex lands
-    /// within the tolerance.
-    fn motion_to(&self, other: &Local, pair: (usize, usize)) -> Option<(Rigid, f64)> {
-        let rotation = other.frame(pair) * self.frame(pair).transpose();
+    /// The rigid motion taking `self` onto `other` vertex by vertex (a
+    /// reflection where `mirrored`), and the farthest a vertex lands from
+    /// its copy's, if every vertex lands within the tolerance.
+    fn motion_to(
+        &self,
+        other: &Local,
+        pair: (usize, usize),
+        mirrored: bool,
+    ) -> Option<(Rigid, f64)> {
+        // A reflection M turns the frame's third axis, a cross product,
+        // against M's image of it: M = (x', y', -z') F^T.
+        let mut theirs = other.frame(pair);
+        if mirrored {
+            theirs.z_axis = -theirs.z_axis;
+        }
+        let rotation = theirs * self.frame(pair).transpose();
         let motion = Rigid {
             rotation,
             translation: other.centroid - rotation * self.centroid,
@@ -236,6 +256,15 @@ const KEPT_BYTES_PER_TRIANGLE: usize = 12;
 /// beside the kept originals, and enough to keep the threads busy.
 const BATCH_TRIANGLES: usize = 1 << 18;
 
+/// Whether a mirror image of a part is its copy: not for the search (a
+/// chiral template's mirror image is not the template), yes for repeated
+/// parts (an instanced model places left and right hands by one mesh).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MirrorImages {
+    Refused,
+    Accepted,
+}
+
 /// A part that is a rigid copy of an earlier one, vertex for vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CopyOf {
@@ -248,12 +277,26 @@ pub struct CopyOf {
     pub residual: f64,
 }
 
+impl CopyOf {
+    /// Whether the motion is a reflection: a mirror image of the original.
+    pub fn mirrored(&self) -> bool {
+        self.motion.rotation.determinant() < 0.0
+    }
+}
+
 /// For each of `parts` (triangle lists of `mesh`), `None` where it copies
 /// no earlier part (the search's originals), or what it copies. Parts are
 /// numbered with `backend`, and the same copies are found with either.
-pub fn congruent_parts(mesh: &TriMesh, parts: &[&[u32]], backend: Threads) -> Vec<Option<CopyOf>> {
+/// With `mirrors` accepted, a mirror image is a copy too, whichever way
+/// its triangles turn.
+pub fn congruent_parts(
+    mesh: &TriMesh,
+    parts: &[&[u32]],
+    backend: Threads,
+    mirrors: MirrorImages,
+) -> Vec<Option<CopyOf>> {
     let kept_limit = KEPT_BYTES_PER_TRIANGLE * mesh.triangles().len();
-    congruent_parts_keeping(mesh, parts, backend, kept_limit)
+    congruent_parts_keeping(mesh, parts, backend, mirrors, kept_limit)
 }
 
 /// [`congruent_parts`], keeping originals' numberings of at most
@@ -262,8 +305,13 @@ fn congruent_parts_keeping(
     mesh: &TriMesh,
     parts: &[&[u32]],
     backend: Threads,
+    mirrors: MirrorImages,
     kept_limit: usize,
 ) -> Vec<Option<CopyOf>> {
+    let handedness: &[bool] = match mirrors {
+        MirrorImages::Refused => &[false],
+        MirrorImages::Accepted => &[false, true],
+    };
     let mut copies = vec![None; parts.len()];
     // A copy has as many triangles as its original: a part alone in its
     // count is neither, and is not numbered at all.
@@ -293,8 +341,22 @@ fn congruent_parts_keeping(
         for (&i, (local, pattern)) in batch.iter().zip(numbered) {
             let length = pattern.len();
             let key = (length, local.vertices.len(), pattern_hash(&pattern));
-            let same_pattern = originals.entry(key).or_default();
-            copies[i] = original_of(same_pattern, &local, &pattern, mesh, parts);
+            copies[i] = originals
+                .get(&key)
+                .and_then(|same| original_of(same, &local, &pattern, mesh, parts, handedness));
+            if copies[i].is_none() && mirrors == MirrorImages::Accepted {
+                // A mirror image turned over matches read backwards, and
+                // only as a reflection (a turned copy read so is inside out).
+                let (turned_over, reversed) = Local::numbered(mesh, parts[i], true);
+                let key = (
+                    reversed.len(),
+                    turned_over.vertices.len(),
+                    pattern_hash(&reversed),
+                );
+                copies[i] = originals.get(&key).and_then(|same| {
+                    original_of(same, &turned_over, &reversed, mesh, parts, &[true])
+                });
+            }
             let (_, last) = last_of_count[&parts[i].len()];
             if copies[i].is_none()
                 && last > i
@@ -305,7 +367,7 @@ fn congruent_parts_keeping(
                 if keep {
                     kept_bytes += bytes;
                 }
-                same_pattern.push(Original {
+                originals.entry(key).or_default().push(Original {
                     part: i,
                     spread: local.spread,
                     magnitude: local.magnitude,
@@ -328,14 +390,16 @@ fn congruent_parts_keeping(
 }
 
 /// The first of `same_pattern`'s originals near `local` whose numbered
-/// triangles equal `pattern`, and the motion onto `local`: an original
-/// whose numbering was not kept is numbered again.
+/// triangles equal `pattern`, and the motion onto `local`, a reflection
+/// where `handedness` allows it (`true`): an original whose numbering was
+/// not kept is numbered again.
 fn original_of(
     same_pattern: &SamePattern,
     local: &Local,
     pattern: &[u32],
     mesh: &TriMesh,
     parts: &[&[u32]],
+    handedness: &[bool],
 ) -> Option<CopyOf> {
     same_pattern
         .close_to(local)
@@ -350,7 +414,11 @@ fn original_of(
                 }
             };
             (their_pattern.as_slice() == pattern)
-                .then(|| there.motion_to(local, original.pair))
+                .then(|| {
+                    handedness
+                        .iter()
+                        .find_map(|&mirrored| there.motion_to(local, original.pair, mirrored))
+                })
                 .flatten()
                 .map(|(motion, residual)| CopyOf {
                     original: original.part,
@@ -399,7 +467,7 @@ mod tests {
             ])
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
-        let copies = congruent_parts(&scene, &lists, Threads::Serial);
+        let copies = congruent_parts(&scene, &lists, Threads::Serial, MirrorImages::Refused);
         let originals: Vec<Option<usize>> = copies.iter().map(|c| c.map(|c| c.original)).collect();
         assert_eq!(originals, [None, Some(0), None, None, None, Some(0)]);
         // The motion takes the first ring onto the second.
@@ -446,7 +514,7 @@ mod tests {
         let strewn = TriMesh::new(positions, triangles).unwrap();
         assert!(VertexNumbering::for_part(&strewn, lists[0]).is_strewn());
         let originals = |mesh: &TriMesh, backend| -> Vec<Option<usize>> {
-            congruent_parts(mesh, &lists, backend)
+            congruent_parts(mesh, &lists, backend, MirrorImages::Refused)
                 .iter()
                 .map(|c| c.map(|c| c.original))
                 .collect()
@@ -467,7 +535,7 @@ mod tests {
         assert_eq!(originals(&strewn, Threads::Parallel), expected);
         // Nothing kept: every original read again, the same copies.
         let read_again: Vec<Option<usize>> =
-            congruent_parts_keeping(&scene, &lists, Threads::Parallel, 0)
+            congruent_parts_keeping(&scene, &lists, Threads::Parallel, MirrorImages::Refused, 0)
                 .iter()
                 .map(|c| c.map(|c| c.original))
                 .collect();
@@ -505,7 +573,7 @@ mod tests {
             .collect();
         let lists: Vec<&[u32]> = parts.iter().map(|p| p.as_slice()).collect();
         let start = std::time::Instant::now();
-        let copies = congruent_parts(&scene, &lists, Threads::Serial);
+        let copies = congruent_parts(&scene, &lists, Threads::Serial, MirrorImages::Refused);
         let took = start.elapsed();
         let found: Vec<(usize, usize)> = copies
             .iter()

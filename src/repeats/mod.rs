@@ -11,9 +11,10 @@
 
 mod bodies;
 mod congruent;
+mod mirrors;
 mod overlaps;
 
-pub use congruent::{CopyOf, congruent_parts};
+pub use congruent::{CopyOf, MirrorImages, congruent_parts};
 
 use crate::exec::Threads;
 use crate::math::Vec3;
@@ -32,6 +33,9 @@ pub struct RepeatCopy {
     /// The farthest a vertex of the representative, moved by `pose`,
     /// lands from this copy's: float rounding for an exact copy.
     pub residual: f64,
+    /// Whether the copy is the representative's mirror image: `pose` is
+    /// a reflection.
+    pub mirrored: bool,
     /// The copy's triangles, ascending.
     pub triangles: Vec<u32>,
 }
@@ -61,17 +65,33 @@ impl Family {
 
 /// The repeated parts of `mesh`: families of two copies or more, the one
 /// with the most triangles in all first, each copy's triangles taken by no
-/// other family. Mirror images are not copies (no rigid motion takes one
-/// onto the other).
+/// other family. A mirror image is a copy too, marked as one (an instanced
+/// model places left and right by one mesh and a reflecting node).
 pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
     let pieces = pieces_of(mesh, backend);
     let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
-    let copies = congruent_parts(mesh, &lists, backend);
+    let copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
     let groups = bodies::bodies(mesh, &pieces, &copies);
-    let mut families: Vec<Family> = groups
+    let mut in_family = vec![false; pieces.len()];
+    for copy in groups.iter().flat_map(|g| &g.copies) {
+        for &p in &copy.pieces {
+            in_family[p] = true;
+        }
+    }
+    let families: Vec<Family> = groups
         .into_iter()
         .map(|group| family_of(mesh, &pieces, group))
         .collect();
+    let lone: Vec<Vec<u32>> = pieces
+        .into_iter()
+        .zip(in_family)
+        .filter_map(|(piece, taken)| (!taken).then_some(piece))
+        .collect();
+    let mut families = mirrors::with_mirror_images(mesh, families, &lone, backend);
+    for family in &mut families {
+        // The representative first, the rest in the order the file has them.
+        family.copies[1..].sort_by_key(|c| c.triangles[0]);
+    }
     families.sort_by_key(|f| std::cmp::Reverse(f.triangles() * f.copies.len()));
     families
 }
@@ -83,7 +103,7 @@ pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
 fn pieces_of(mesh: &TriMesh, backend: Threads) -> Vec<Vec<u32>> {
     let components = connected_components(mesh, backend);
     let lists: Vec<&[u32]> = components.iter().map(|c| c.as_slice()).collect();
-    let copies = congruent_parts(mesh, &lists, backend);
+    let copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
     let mut repeats = vec![false; components.len()];
     for (c, copy) in copies.iter().enumerate() {
         if let Some(copy) = copy {
@@ -139,6 +159,7 @@ fn family_of(mesh: &TriMesh, pieces: &[Vec<u32>], group: bodies::Body) -> Family
             RepeatCopy {
                 pose: copy.pose.to_rows(),
                 residual: copy.residual,
+                mirrored: copy.pose.rotation.determinant() < 0.0,
                 triangles,
             }
         })
@@ -153,7 +174,7 @@ fn family_of(mesh: &TriMesh, pieces: &[Vec<u32>], group: bodies::Body) -> Family
 }
 
 /// The minimal bounding sphere of `triangles`' vertices: centre, radius.
-fn bounding_sphere(mesh: &TriMesh, triangles: &[u32]) -> (Vec3, f64) {
+pub(super) fn bounding_sphere(mesh: &TriMesh, triangles: &[u32]) -> (Vec3, f64) {
     let mut numbering = VertexNumbering::for_part(mesh, triangles);
     let mut vertices = Vec::new();
     for &t in triangles {
@@ -239,13 +260,99 @@ mod tests {
         }
     }
 
+    /// `mesh` reflected in x, moved by `shift`, its triangles turned over
+    /// (read backwards, to face outwards again) where `turned_over`.
+    fn mirrored(mesh: &TriMesh, shift: Vec3, turned_over: bool) -> TriMesh {
+        let positions = mesh
+            .positions()
+            .iter()
+            .map(|p| {
+                [
+                    -p[0] + shift.x as f32,
+                    p[1] + shift.y as f32,
+                    p[2] + shift.z as f32,
+                ]
+            })
+            .collect();
+        let triangles = mesh
+            .triangles()
+            .iter()
+            .map(|&[a, b, c]| if turned_over { [a, c, b] } else { [a, b, c] })
+            .collect();
+        TriMesh::new(positions, triangles).unwrap()
+    }
+
     #[test]
-    fn mirror_images_and_near_twins_are_not_copies() {
+    fn mirror_images_are_copies_marked_as_such_whichever_way_they_face() {
         let part = lopsided(Vec3::ZERO);
-        let mirrored = part
-            .map_positions(|p| Vec3::new(-p.x, p.y, p.z) + Vec3::new(10.0, 0.0, 0.0))
+        let scene = scene_of(&[
+            part.clone(),
+            mirrored(&part, Vec3::new(10.0, 0.0, 0.0), false),
+            mirrored(&part, Vec3::new(20.0, 0.0, 0.0), true),
+            placed(&part, turn(2), Vec3::new(30.0, 0.0, 0.0)),
+        ]);
+        let families = find_repeats(&scene, Threads::Serial);
+        assert_eq!(families.len(), 1);
+        let copies = &families[0].copies;
+        let mirrored: Vec<bool> = copies.iter().map(|c| c.mirrored).collect();
+        assert_eq!(mirrored, [false, true, true, false]);
+        // The far corner lands where each copy has it.
+        let far = Vec3::new(1.4, 2.2, 3.5);
+        let wants = [
+            far,
+            Vec3::new(10.0 - far.x, far.y, far.z),
+            Vec3::new(20.0 - far.x, far.y, far.z),
+            turn(2) * far + Vec3::new(30.0, 0.0, 0.0),
+        ];
+        for (copy, want) in copies.iter().zip(wants) {
+            assert!(moved(&copy.pose, far).distance(want) < 1e-5);
+            assert!(copy.residual < 1e-5);
+        }
+        // The search's copy test still refuses them.
+        let lists: Vec<Vec<u32>> = (0..4).map(|k| (12 * k..12 * k + 12).collect()).collect();
+        let lists: Vec<&[u32]> = lists.iter().map(|l| l.as_slice()).collect();
+        let refused = congruent_parts(&scene, &lists, Threads::Serial, MirrorImages::Refused);
+        assert_eq!(refused.iter().filter(|c| c.is_some()).count(), 1);
+    }
+
+    #[test]
+    fn a_pair_of_mirror_images_that_repeats_stays_one_part() {
+        // A wheel pair (a part and its mirror image side by side) placed
+        // twice is one part of two copies, not one wheel of four; a left
+        // and a right bracket found once each are one part, one mirrored.
+        let wheel = lopsided(Vec3::new(1.0, 0.0, 0.0));
+        let pair = scene_of(&[wheel.clone(), mirrored(&wheel, Vec3::ZERO, true)]);
+        let bracket = cuboid(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.2))
+            .map_positions(|p| {
+                if p == Vec3::ONE.with_z(0.2) {
+                    p + Vec3::X
+                } else {
+                    p
+                }
+            })
             .unwrap();
-        // A corner moved by a thousandth of the part's size.
+        let scene = scene_of(&[
+            pair.clone(),
+            placed(&pair, turn(3), Vec3::new(0.0, 30.0, 0.0)),
+            placed(&bracket, DQuat::IDENTITY, Vec3::new(0.0, -30.0, 0.0)),
+            mirrored(&bracket, Vec3::new(9.0, -30.0, 0.0), false),
+        ]);
+        let families = find_repeats(&scene, Threads::Serial);
+        let shapes: Vec<(usize, usize, usize, usize)> = families
+            .iter()
+            .map(|f| {
+                let mirrored = f.copies.iter().filter(|c| c.mirrored).count();
+                (f.copies.len(), mirrored, f.pieces, f.triangles())
+            })
+            .collect();
+        assert_eq!(shapes, [(2, 0, 2, 24), (2, 1, 1, 12)]);
+    }
+
+    #[test]
+    fn near_twins_are_not_copies() {
+        // A corner moved by a thousandth of the part's size, and a part
+        // turned inside out (its triangles read backwards, not reflected).
+        let part = lopsided(Vec3::ZERO);
         let twin = part
             .map_positions(|p| {
                 let p = if p == Vec3::ZERO {
@@ -256,7 +363,12 @@ mod tests {
                 turn(1) * p + Vec3::new(20.0, 0.0, 0.0)
             })
             .unwrap();
-        let scene = scene_of(&[part, mirrored, twin]);
+        let inside_out = mirrored(
+            &mirrored(&part, Vec3::ZERO, false),
+            Vec3::new(40.0, 0.0, 0.0),
+            true,
+        );
+        let scene = scene_of(&[part, twin, inside_out]);
         assert!(find_repeats(&scene, Threads::Serial).is_empty());
     }
 

@@ -9,7 +9,7 @@
 
 use std::collections::HashMap;
 
-use super::{bodies, congruent_parts};
+use super::{MirrorImages, bodies, congruent_parts};
 use crate::exec::Threads;
 use crate::mesh::TriMesh;
 
@@ -25,7 +25,7 @@ pub(super) fn copies_within(
         return None;
     }
     let lists: Vec<&[u32]> = stored.iter().map(|p| p.as_slice()).collect();
-    let copies = congruent_parts(mesh, &lists, Threads::Serial);
+    let copies = congruent_parts(mesh, &lists, Threads::Serial, MirrorImages::Refused);
     let body = bodies::one_body(mesh, stored, &copies)?;
     if body.len() < 2 {
         return None;

@@ -48,15 +48,16 @@ fn table(families: &[Family], triangles: usize, loaded: f64, found: f64) -> Stri
     );
     let _ = write!(
         text,
-        "{:>6} {:>7} {:>9} {:>6} {:>12} {:>10}",
-        "family", "copies", "triangles", "pieces", "radius", "residual"
+        "{:>6} {:>7} {:>8} {:>9} {:>6} {:>12} {:>10}",
+        "family", "copies", "mirrored", "triangles", "pieces", "radius", "residual"
     );
     for (k, f) in families.iter().enumerate() {
         let residual = f.copies.iter().map(|c| c.residual).fold(0.0, f64::max);
         let _ = write!(
             text,
-            "\n{k:>6} {:>7} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
+            "\n{k:>6} {:>7} {:>8} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
             f.copies.len(),
+            f.copies.iter().filter(|c| c.mirrored).count(),
             f.triangles(),
             f.pieces,
             f.radius
@@ -74,6 +75,7 @@ fn family_json(family: &Family) -> serde_json::Value {
         "copies": family.copies.iter().map(|c| serde_json::json!({
             "pose": c.pose,
             "residual": c.residual,
+            "mirrored": c.mirrored,
         })).collect::<Vec<_>>(),
     })
 }

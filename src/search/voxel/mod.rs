@@ -32,7 +32,7 @@ use crate::descriptor::LayerDevice;
 use crate::error::Result;
 use crate::instances::{best_first, merge_duplicates, refuse_near_twins};
 use crate::options::MatchOptions;
-use crate::repeats::congruent_parts;
+use crate::repeats::{MirrorImages, congruent_parts};
 use crate::scene::{Parts, Scene};
 use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
@@ -59,7 +59,7 @@ pub(super) async fn search_voxels(
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
     let copies_from = now_ms();
-    let copies = congruent_parts(scene.mesh(), &lists, options.backend);
+    let copies = congruent_parts(scene.mesh(), &lists, options.backend, MirrorImages::Refused);
     let copies_ms = now_ms() - copies_from;
     let originals: Vec<usize> = (0..parts.len()).filter(|&k| copies[k].is_none()).collect();
     let observer = RefCell::new(observer);
