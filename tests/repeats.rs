@@ -137,12 +137,17 @@ fn matches(found: &Family, unit: &Unit) -> bool {
     true
 }
 
-/// The truth families `families` leaves unfound, and the result families
-/// that are two truth units at once.
+/// The truth families a shared scene's `families` leaves unfound, and the
+/// result families that are two truth units at once.
 fn score(scene: &str, families: &[Family]) -> (Vec<String>, usize) {
     let path = scene_dir(scene).join("families.json");
     let truth: Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
-    let units = units(&truth);
+    score_units(&units(&truth), families)
+}
+
+/// The truth families `families` leaves unfound, and the result families
+/// that are two truth units at once.
+fn score_units(units: &[Unit], families: &[Family]) -> (Vec<String>, usize) {
     let mut found: Vec<&str> = Vec::new();
     let mut merged = 0;
     for family in families {
@@ -221,4 +226,145 @@ fn the_scorer_refuses_a_family_moved_off_its_copies() {
         row[3] = origin[i];
     }
     assert_eq!(score("real-truck-wheels", &families).0.len(), 1);
+}
+
+/// Four models in units a thousand times apart, placed turned, mirrored
+/// (triangles kept, or turned over to face outwards), as a body of two
+/// pieces, and a near twin that must join nothing.
+#[test]
+fn generated_turned_mirrored_and_twin_parts_are_each_their_own_family() {
+    use fast_reject::math::Vec3;
+    use fast_reject::mesh::{TriMesh, minimal_bounding_sphere};
+    use glam::{DMat3, DQuat};
+
+    /// A deterministic turn: no seed file to keep.
+    fn turn(k: usize) -> DMat3 {
+        let a = 0.37 + 1.91 * k as f64;
+        let axis = Vec3::new(a.sin(), (1.3 * a).cos(), 0.6).normalize();
+        DMat3::from_quat(DQuat::from_axis_angle(axis, 2.0 * a))
+    }
+    fn placed(mesh: &TriMesh, m: &Matrix, turned_over: bool) -> TriMesh {
+        let positions = mesh
+            .positions()
+            .iter()
+            .map(|p| apply(m, p.map(f64::from)).map(|x| x as f32))
+            .collect();
+        let triangles = mesh
+            .triangles()
+            .iter()
+            .map(|&[a, b, c]| if turned_over { [a, c, b] } else { [a, b, c] })
+            .collect();
+        TriMesh::new(positions, triangles).unwrap()
+    }
+    fn pose(rotation: DMat3, mirrored: bool, at: Vec3) -> Matrix {
+        let r = if mirrored {
+            rotation * DMat3::from_diagonal(Vec3::new(-1.0, 1.0, 1.0))
+        } else {
+            rotation
+        };
+        std::array::from_fn(|i| {
+            if i == 3 {
+                return [0.0, 0.0, 0.0, 1.0];
+            }
+            [r.col(0)[i], r.col(1)[i], r.col(2)[i], at[i]]
+        })
+    }
+    let model = |file: &str, size: f64| {
+        let mesh = load(&common::model_bytes(file), None).unwrap();
+        let sphere = minimal_bounding_sphere(
+            &(0..mesh.positions().len() as u32)
+                .map(|v| mesh.vertex(v))
+                .collect::<Vec<_>>(),
+        )
+        .unwrap();
+        mesh.map_positions(|p| (p - sphere.center) * (size / sphere.radius))
+            .unwrap()
+    };
+    let cow = model("cow.obj", 0.05);
+    let fandisk = model("fandisk.obj", 1.0);
+    let rocker = model("rocker-arm.obj", 50.0);
+    // A body of two pieces apart: a teapot and a smaller cow beside it.
+    let mut body = model("teapot.obj", 2.0);
+    body.append(
+        &model("cow.obj", 0.5)
+            .map_positions(|p| p + Vec3::new(3.0, 0.0, 0.0))
+            .unwrap(),
+    );
+
+    let mut scene: Option<TriMesh> = None;
+    let mut add = |mesh: TriMesh| match &mut scene {
+        Some(s) => s.append(&mesh),
+        None => scene = Some(mesh),
+    };
+    let mut units = Vec::new();
+    let parts: [(&str, &TriMesh, f64, usize); 4] = [
+        ("cow", &cow, 0.05, 6),
+        ("fandisk", &fandisk, 1.0, 4),
+        ("rocker", &rocker, 50.0, 3),
+        ("body", &body, 4.0, 3),
+    ];
+    for (f, (id, mesh, size, count)) in parts.into_iter().enumerate() {
+        let mut copies = Vec::new();
+        for k in 0..count {
+            // Every third copy mirrored, every other mirror turned over.
+            let mirrored = k % 3 == 2;
+            let at = Vec3::new(4.0 * size * k as f64, 1000.0 * f as f64, 0.0);
+            let m = pose(turn(7 * f + k), mirrored, at);
+            add(placed(mesh, &m, mirrored && k % 2 == 1));
+            copies.push(m);
+        }
+        let vertices: Vec<Vec3> = (0..mesh.positions().len() as u32)
+            .map(|v| mesh.vertex(v))
+            .collect();
+        let sphere = minimal_bounding_sphere(&vertices).unwrap();
+        let c = sphere.center.to_array();
+        let r = sphere.radius;
+        units.push(Unit {
+            id: id.to_owned(),
+            members: vec![id.to_owned()],
+            center: c,
+            radius: r,
+            triangles: mesh.triangles().len(),
+            copies,
+            symmetries: vec![pose(DMat3::IDENTITY, false, Vec3::ZERO)],
+            points: vec![
+                c,
+                [c[0] + r, c[1], c[2]],
+                [c[0], c[1] + r, c[2]],
+                [c[0], c[1], c[2] + r],
+            ],
+        });
+    }
+    // A fandisk with one vertex moved by a hundredth of its size.
+    let twin = fandisk
+        .map_positions(|p| {
+            if p == fandisk.vertex(0) {
+                p + Vec3::splat(0.01)
+            } else {
+                p
+            }
+        })
+        .unwrap();
+    add(placed(
+        &twin,
+        &pose(turn(99), false, Vec3::new(0.0, -1000.0, 0.0)),
+        false,
+    ));
+    let scene = scene.unwrap();
+
+    let families = find_repeats(&scene, Threads::Parallel);
+    assert_eq!(score_units(&units, &families), (vec![], 0));
+    // Nothing else: the twin joins no family, and no family is extra.
+    let shapes: Vec<(usize, usize, usize)> = families
+        .iter()
+        .map(|f| (f.copies.len(), f.pieces, f.triangles()))
+        .collect();
+    assert_eq!(families.len(), units.len(), "{shapes:?}");
+    let mirrored: usize = families
+        .iter()
+        .flat_map(|f| &f.copies)
+        .filter(|c| c.mirrored)
+        .count();
+    // Every third copy of each: 2 of the 6 cows, one of each of the rest.
+    assert_eq!(mirrored, 2 + 1 + 1 + 1);
 }

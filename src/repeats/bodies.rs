@@ -30,7 +30,7 @@ pub(super) struct Body {
     pub copies: Vec<BodyCopy>,
 }
 
-pub(super) const IDENTITY: Rigid = Rigid {
+const IDENTITY: Rigid = Rigid {
     rotation: DMat3::IDENTITY,
     translation: Vec3::ZERO,
 };

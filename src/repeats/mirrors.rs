@@ -1,35 +1,63 @@
 //! Mirror images join the family of what they mirror.
 //!
-//! Bodies are found from turned copies alone, so that a pair of wheels,
+//! Bodies are found from turned copies first, so that a pair of wheels,
 //! each the other's mirror image, stays one part of two copies rather
-//! than one wheel of four. Then a family's representative, or a piece
-//! found once, that is the mirror image of another joins it, its copies
-//! marked mirrored: an instanced model places a left and a right part by
-//! one mesh and a reflecting node.
+//! than one wheel of four. A piece found once that mirrors another piece
+//! joins that piece's family before the bodies are built, so that a
+//! mirrored copy of a body of several pieces is one copy; and a family
+//! whose representative mirrors another family's joins it after. Their
+//! copies are marked mirrored: an instanced model places a left and a
+//! right part by one mesh and a reflecting node.
 
 use std::collections::BTreeMap;
 
-use super::bodies::{IDENTITY, compose};
-use super::{Family, MirrorImages, RepeatCopy, bounding_sphere, congruent_parts};
+use super::bodies::compose;
+use super::{CopyOf, Family, MirrorImages, RepeatCopy, congruent_parts};
 use crate::align::Rigid;
 use crate::exec::Threads;
 use crate::mesh::TriMesh;
 
-/// `families` with the mirror images among them and among `lone` (the
-/// pieces in no family) joined: a family mirrored by another takes its
-/// copies, and two lone pieces, each the other's mirror image, are a
-/// family of two.
+/// `copies` (what each of `pieces` turned copies) with the mirror images
+/// among the pieces that copy nothing and that nothing copies: each is
+/// made a copy of the piece it mirrors.
+pub(super) fn mirror_lone_pieces(
+    mesh: &TriMesh,
+    pieces: &[Vec<u32>],
+    copies: &mut [Option<CopyOf>],
+    backend: Threads,
+) {
+    let mut copied = vec![false; pieces.len()];
+    for copy in copies.iter().flatten() {
+        copied[copy.original] = true;
+    }
+    // Originals first, so that a lone piece is a copy of one where it
+    // can be.
+    let originals = (0..pieces.len()).filter(|&p| copied[p]);
+    let lone = (0..pieces.len()).filter(|&p| !copied[p] && copies[p].is_none());
+    let units: Vec<usize> = originals.chain(lone).collect();
+    let lists: Vec<&[u32]> = units.iter().map(|&p| pieces[p].as_slice()).collect();
+    let found = congruent_parts(mesh, &lists, backend, MirrorImages::Accepted);
+    for (unit, copy) in found.into_iter().enumerate() {
+        let piece = units[unit];
+        if let Some(copy) = copy.filter(|c| c.mirrored() && !copied[piece]) {
+            copies[piece] = Some(CopyOf {
+                original: units[copy.original],
+                ..copy
+            });
+        }
+    }
+}
+
+/// `families` with those whose representative mirrors another's joined:
+/// the family mirrored takes the other's copies.
 pub(super) fn with_mirror_images(
     mesh: &TriMesh,
     families: Vec<Family>,
-    lone: &[Vec<u32>],
     backend: Threads,
 ) -> Vec<Family> {
-    let count = families.len();
     let lists: Vec<&[u32]> = families
         .iter()
         .map(|f| f.copies[0].triangles.as_slice())
-        .chain(lone.iter().map(|p| p.as_slice()))
         .collect();
     let copies = congruent_parts(mesh, &lists, backend, MirrorImages::Accepted);
     // What each original's mirror images are, and the motion onto each.
@@ -46,26 +74,10 @@ pub(super) fn with_mirror_images(
     let mut families: Vec<Option<Family>> = families.into_iter().map(Some).collect();
     let mut joined = Vec::new();
     for (original, images) in mirrors {
-        let mut family = match original.checked_sub(count) {
-            None => families[original].take().expect("an original is no image"),
-            Some(piece) => lone_family(mesh, &lone[piece]),
-        };
+        let mut family = families[original].take().expect("an original is no image");
         for (unit, motion, residual) in images {
-            let theirs = match unit.checked_sub(count) {
-                None => {
-                    families[unit]
-                        .take()
-                        .expect("an image is no original")
-                        .copies
-                }
-                Some(piece) => vec![RepeatCopy {
-                    pose: IDENTITY.to_rows(),
-                    residual: 0.0,
-                    mirrored: false,
-                    triangles: lone[piece].clone(),
-                }],
-            };
-            for copy in theirs {
+            let theirs = families[unit].take().expect("an image is no original");
+            for copy in theirs.copies {
                 let pose = compose(&Rigid::from_rows(&copy.pose), &motion);
                 family.copies.push(RepeatCopy {
                     pose: pose.to_rows(),
@@ -78,20 +90,4 @@ pub(super) fn with_mirror_images(
         joined.push(family);
     }
     families.into_iter().flatten().chain(joined).collect()
-}
-
-/// A piece found once, as a family of that one copy.
-fn lone_family(mesh: &TriMesh, triangles: &[u32]) -> Family {
-    let (center, radius) = bounding_sphere(mesh, triangles);
-    Family {
-        center,
-        radius,
-        pieces: 1,
-        copies: vec![RepeatCopy {
-            pose: IDENTITY.to_rows(),
-            residual: 0.0,
-            mirrored: false,
-            triangles: triangles.to_vec(),
-        }],
-    }
 }

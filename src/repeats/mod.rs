@@ -70,24 +70,13 @@ impl Family {
 pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
     let pieces = pieces_of(mesh, backend);
     let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
-    let copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
-    let groups = bodies::bodies(mesh, &pieces, &copies);
-    let mut in_family = vec![false; pieces.len()];
-    for copy in groups.iter().flat_map(|g| &g.copies) {
-        for &p in &copy.pieces {
-            in_family[p] = true;
-        }
-    }
-    let families: Vec<Family> = groups
+    let mut copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
+    mirrors::mirror_lone_pieces(mesh, &pieces, &mut copies, backend);
+    let families: Vec<Family> = bodies::bodies(mesh, &pieces, &copies)
         .into_iter()
         .map(|group| family_of(mesh, &pieces, group))
         .collect();
-    let lone: Vec<Vec<u32>> = pieces
-        .into_iter()
-        .zip(in_family)
-        .filter_map(|(piece, taken)| (!taken).then_some(piece))
-        .collect();
-    let mut families = mirrors::with_mirror_images(mesh, families, &lone, backend);
+    let mut families = mirrors::with_mirror_images(mesh, families, backend);
     for family in &mut families {
         // The representative first, the rest in the order the file has them.
         family.copies[1..].sort_by_key(|c| c.triangles[0]);
