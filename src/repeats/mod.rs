@@ -25,6 +25,7 @@ use crate::mesh::{
 
 /// One place a repeated part stands.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RepeatCopy {
     /// The motion from the family's representative (its first copy, where
     /// it stands in the scene) to this copy: a row-major 4x4, as an
@@ -36,7 +37,9 @@ pub struct RepeatCopy {
     /// Whether the copy is the representative's mirror image: `pose` is
     /// a reflection.
     pub mirrored: bool,
-    /// The copy's triangles, ascending.
+    /// The copy's triangles, ascending (not in the JSON: a building's
+    /// would be its whole triangle list again).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub triangles: Vec<u32>,
 }
 
@@ -60,6 +63,22 @@ impl Family {
     /// The triangles each copy has.
     pub fn triangles(&self) -> usize {
         self.copies[0].triangles.len()
+    }
+}
+
+/// As the CLI's JSON and JavaScript show a family: the RESULT format of
+/// `bench/evaluate_families.py`, with each copy's triangle count.
+#[cfg(feature = "serde")]
+impl serde::Serialize for Family {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut family = serializer.serialize_struct("Family", 5)?;
+        family.serialize_field("center", &self.center.to_array())?;
+        family.serialize_field("radius", &self.radius)?;
+        family.serialize_field("triangles", &self.triangles())?;
+        family.serialize_field("pieces", &self.pieces)?;
+        family.serialize_field("copies", &self.copies)?;
+        family.end()
     }
 }
 

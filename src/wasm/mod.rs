@@ -24,8 +24,10 @@ use wasm_bindgen::prelude::*;
 use crate::cascade::{LayerStats, Progress};
 use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
+use crate::exec::Threads;
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_within};
+use crate::repeats::find_repeats;
 use crate::scene::{Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
@@ -191,6 +193,31 @@ fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), Js
     let start = now_ms();
     let mesh = load_within(bytes, format, &NoResources, max_mesh_bytes()).map_err(js_error)?;
     Ok((mesh, now_ms() - start))
+}
+
+/// The parts a mesh file holds twice or more, found without a template:
+/// `{families, timingsMs: {load, repeats}}`, each family as `fast-reject
+/// repeats --json` writes it (its representative's centre and radius, its
+/// triangles and pieces, each copy's `pose`, `residual` and `mirrored`).
+/// `options`: `format` only, recognized from the content when absent.
+#[wasm_bindgen(js_name = findRepeats)]
+pub fn find_repeats_in(bytes: &[u8], options: JsValue) -> Result<JsValue, JsError> {
+    let format = options::format_only("repeats", &options)?;
+    let (mesh, load_ms) = parse_mesh(bytes, format)?;
+    let start = now_ms();
+    let families = find_repeats(&mesh, Threads::Parallel);
+    let repeats_ms = now_ms() - start;
+    let text = serde_json::to_string(&families)
+        .map_err(|e| JsError::new(&format!("cannot encode the families: {e}")))?;
+    let families = js_sys::JSON::parse(&text)
+        .map_err(|e| JsError::new(&format!("cannot decode the families: {}", describe_js(&e))))?;
+    let timings = Object::new();
+    set(&timings, "load", &JsValue::from(load_ms));
+    set(&timings, "repeats", &JsValue::from(repeats_ms));
+    let object = Object::new();
+    set(&object, "families", &families);
+    set(&object, "timingsMs", &timings.into());
+    Ok(object.into())
 }
 
 /// A scene split into its parts, ready to be searched any number of times.
@@ -421,7 +448,7 @@ impl TemplateHandle {
     /// name the `format`.
     #[wasm_bindgen(js_name = fromBytes)]
     pub fn from_bytes(bytes: &[u8], options: JsValue) -> Result<TemplateHandle, JsError> {
-        let format = options::template_format(&options)?;
+        let format = options::format_only("template", &options)?;
         let (mesh, load_ms) = parse_mesh(bytes, format)?;
         Ok(TemplateHandle {
             source: TemplateSource::Model(mesh),

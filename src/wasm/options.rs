@@ -79,12 +79,13 @@ impl SceneSettings {
     }
 }
 
-/// `Template.fromBytes` options: the format only.
-pub fn template_format(value: &JsValue) -> Result<Option<Format>, JsError> {
-    let mut map = plain_object("template", value)?;
+/// `Template.fromBytes` and `findRepeats` options (`what`: "template",
+/// "repeats"): the format only.
+pub fn format_only(what: &str, value: &JsValue) -> Result<Option<Format>, JsError> {
+    let mut map = plain_object(what, value)?;
     if let Some(key) = map.keys().find(|k| k.as_str() != "format") {
         return Err(JsError::new(&format!(
-            "unknown template option '{}'; the only option is format",
+            "unknown {what} option '{}'; the only option is format",
             FileText::new(key)
         )));
     }

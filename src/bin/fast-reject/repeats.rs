@@ -24,7 +24,7 @@ pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
     let found = start.elapsed().as_secs_f64() * 1e3 - loaded;
     if args.json {
         let value = serde_json::json!({
-            "families": families.iter().map(family_json).collect::<Vec<_>>(),
+            "families": families,
             "timings_ms": { "load": loaded, "repeats": found },
         });
         return super::write_out(&value.to_string());
@@ -64,18 +64,4 @@ fn table(families: &[Family], triangles: usize, loaded: f64, found: f64) -> Stri
         );
     }
     text
-}
-
-fn family_json(family: &Family) -> serde_json::Value {
-    serde_json::json!({
-        "center": family.center.to_array(),
-        "radius": family.radius,
-        "triangles": family.triangles(),
-        "pieces": family.pieces,
-        "copies": family.copies.iter().map(|c| serde_json::json!({
-            "pose": c.pose,
-            "residual": c.residual,
-            "mirrored": c.mirrored,
-        })).collect::<Vec<_>>(),
-    })
 }
