@@ -201,6 +201,43 @@ declare abstract class Handle {
   free(): void;
 }
 
+/** One place a repeated part stands. */
+export interface RepeatCopy {
+  /** Row-major 4x4 from the family's first copy, where it stands in the scene, to this one. */
+  pose: Matrix4;
+  /** The farthest a vertex of the first copy, moved by `pose`, lands from this copy's: float rounding for an exact copy. */
+  residual: number;
+  /** Whether this copy is the first one's mirror image (`pose` is a reflection). */
+  mirrored: boolean;
+}
+
+/** A part the scene holds twice or more, and every copy of it. */
+export interface RepeatFamily {
+  /** The centre of the first copy's minimal bounding sphere, in the scene: the point each pose moves onto its copy's. */
+  center: [number, number, number];
+  radius: number;
+  /** Triangles of one copy. */
+  triangles: number;
+  /** Connected pieces one copy was matched as (a CAD body of several pieces that move together is one part). */
+  pieces: number;
+  /** The copies, the first one first (its pose the identity). */
+  copies: RepeatCopy[];
+}
+
+export interface RepeatsReport {
+  /** The families, the one covering the most triangles first. */
+  families: RepeatFamily[];
+  timingsMs: { load: number; repeats: number };
+}
+
+export interface RepeatsOptions {
+  /** The file's format; recognized from the content when absent. */
+  format?: MeshFormat;
+}
+
+/** Finds the parts a mesh file holds twice or more, without a template; throws an Error with a readable message on bad input. */
+export function findRepeats(bytes: MeshBytes, options?: RepeatsOptions): RepeatsReport;
+
 export class Scene extends Handle {
   private constructor();
   /** Parses a scene and splits it into its parts; throws an Error with a readable message on bad input. */

@@ -293,6 +293,22 @@ function searching(sceneHandle, templateHandle, search) {
   return result;
 }
 
+/**
+ * The parts a mesh file holds twice or more, found without a template and
+ * without voxelizing: `{ families, timingsMs }`, each family with its
+ * representative's `center` and `radius`, `triangles` and `pieces` per
+ * copy, and `copies`, each `{ pose, residual, mirrored }` (pose: the
+ * row-major 4x4 from the first copy to this one). Options: `format` only.
+ */
+export function findRepeats(bytes, options) {
+  const data = asBytes(bytes, 'scene');
+  const settings = plainOptions(options, 'repeats');
+  return call((glue) => {
+    checkFits(glue, data, 'scene');
+    return glue.findRepeats(data, settings);
+  });
+}
+
 /** A voxelized scene, searched any number of times. */
 export class Scene extends Handle {
   /** Options are checked in the module, against the core's schema. */

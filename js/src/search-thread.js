@@ -7,10 +7,12 @@
 //      {type: 'load', id, bytes, options}
 //      {type: 'check', id, template: {bytes, format} | {center, radius}}
 //      {type: 'match', id, template, options}
+//      {type: 'repeats', id, bytes, options}
 // Out: {type: 'ready', id, info} | {type: 'loaded', id, scene} | {type: 'checked', id}
 //      {type: 'layer', id, stats} | {type: 'progress', id, progress} | {type: 'result', id, report}
+//      (a 'result' answers 'repeats' too)
 //      {type: 'error', id, error: {name, message}}
-import { Scene, Template, init, optionDefaults } from './index.js';
+import { Scene, Template, findRepeats, init, optionDefaults } from './index.js';
 
 const isNode = typeof process !== 'undefined' && !!process.versions?.node;
 
@@ -40,6 +42,8 @@ async function handle(message, send) {
       send({ type: 'checked', id });
     } else if (message.type === 'match') {
       send({ type: 'result', id, report: await search(message, send) });
+    } else if (message.type === 'repeats') {
+      send({ type: 'result', id, report: findRepeats(message.bytes, message.options) });
     } else {
       throw new Error(`fast-reject: the search worker got an unknown request '${message.type}'`);
     }

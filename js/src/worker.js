@@ -277,6 +277,27 @@ export class SearchWorker {
       .finally(() => signal?.removeEventListener('abort', abort));
   }
 
+  /**
+   * The parts a mesh file holds twice or more, found in the worker without
+   * a template (`findRepeats` of the package); the loaded scene stays as
+   * it was. `signal`, an AbortSignal, cancels: the promise rejects with a
+   * `CancelledError`.
+   */
+  findRepeats(bytes, options = {}, { signal } = {}) {
+    let request;
+    try {
+      request = { type: 'repeats', bytes: asBytes(bytes, 'scene'), options: plainOptions(options, 'repeats') };
+      if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
+    } catch (error) {
+      return Promise.reject(error);
+    }
+    const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
+    signal?.addEventListener('abort', abort, { once: true });
+    return this.#request(request)
+      .then((reply) => reply.report)
+      .finally(() => signal?.removeEventListener('abort', abort));
+  }
+
   /** Stops the running request and every queued one (they reject with a `CancelledError`); the worker restarts with the scene. */
   cancel() {
     this.#cancel(new CancelledError());

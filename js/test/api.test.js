@@ -5,7 +5,7 @@ import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import { test } from 'node:test';
 
-import { Scene, Template, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
+import { Scene, Template, findRepeats, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
 // The test probe, from the plain build's glue: the instance index.js loads.
 import { threadsUsed } from '../../pkg/plain/fast_reject.js';
 
@@ -182,4 +182,37 @@ test('a curvature search tells the steps of welding the mesh, then its vertices;
     template.free();
     scene.free();
   }
+});
+
+test('findRepeats lists the parts a scene repeats, as the CLI does, and refuses bad input', async () => {
+  await init();
+  // The truck's wheel pairs: one part of two pieces (the wheels), twice.
+  const truck = await readFile(new URL('real-truck-wheels/scene.glb', shared));
+  const report = findRepeats(truck);
+  assert.equal(report.families.length, 1);
+  const [family] = report.families;
+  assert.deepEqual([family.copies.length, family.triangles, family.pieces], [2, 768, 2]);
+  assert.equal(family.center.length, 3);
+  for (const copy of family.copies) {
+    assert.equal(copy.pose.length, 4);
+    assert.equal(copy.mirrored, false);
+    assert.ok(copy.residual < 1e-6 * family.radius);
+  }
+  // The second pair stands one axle along x from the first.
+  const [, second] = family.copies;
+  assert.ok(Math.abs(second.pose[0][3]) > family.radius);
+  assert.ok(report.timingsMs.repeats >= 0 && report.timingsMs.load >= 0);
+  // The saw: its 24 rollers are the largest family.
+  const saw = findRepeats(await readFile(new URL('real-saw-roller/scene.glb', shared)), { format: 'glb' });
+  assert.equal(saw.families[0].copies.length, 24);
+  for (const [call, message] of [
+    [() => findRepeats(new Uint8Array([1, 2, 3, 4, 5])), /unrecognized mesh data/],
+    [() => findRepeats(truck, { resolution: 64 }), /unknown repeats option 'resolution'; the only option is format/],
+    [() => findRepeats(truck, { format: 'dwg' }), /format/],
+    [() => findRepeats('scene.glb'), /Uint8Array/],
+  ]) {
+    assert.throws(call, (error) => error instanceof Error && message.test(error.message), String(call));
+  }
+  // The module still works.
+  assert.equal(findRepeats(truck).families.length, 1);
 });

@@ -210,3 +210,28 @@ test('options that cannot be sent to the worker reject with a TypeError naming t
     search.terminate();
   }
 });
+
+test('the worker finds the repeated parts the calling thread finds, keeps its scene, and cancels', async () => {
+  const search = new SearchWorker({ backend: 'cpu' });
+  try {
+    await search.loadScene(sceneBytes);
+    const report = await search.findRepeats(demoScene);
+    // The demo's three mugs: one part, three copies.
+    assert.deepEqual(
+      report.families.map((f) => f.copies.length),
+      [3],
+    );
+    await init();
+    const { findRepeats } = await import('../../pkg/index.js');
+    assert.deepEqual(report.families, findRepeats(demoScene).families);
+    await assert.rejects(search.findRepeats(new Uint8Array(64)), /unrecognized mesh data/);
+    await assert.rejects(search.findRepeats(demoScene, { resolution: 64 }), /only option is format/);
+    const aborted = new AbortController();
+    aborted.abort();
+    await assert.rejects(search.findRepeats(demoScene, {}, { signal: aborted.signal }), WorkerCancelledError);
+    // The zoo is still loaded.
+    assert.equal((await search.match({ bytes: templateBytes })).instances.length, 4);
+  } finally {
+    search.terminate();
+  }
+});
