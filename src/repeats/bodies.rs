@@ -24,6 +24,19 @@ pub(super) struct BodyCopy {
     pub residual: f64,
 }
 
+impl BodyCopy {
+    /// Its triangles, ascending, given the triangles of each of `pieces`.
+    pub fn triangles(&self, pieces: &[Vec<u32>]) -> Vec<u32> {
+        let mut triangles: Vec<u32> = self
+            .pieces
+            .iter()
+            .flat_map(|&p| pieces[p].iter().copied())
+            .collect();
+        triangles.sort_unstable();
+        triangles
+    }
+}
+
 /// A part found twice or more: how many pieces a copy has, and its copies.
 pub(super) struct Body {
     pub pieces: usize,
@@ -61,6 +74,18 @@ struct PieceFamily {
 }
 
 impl PieceFamily {
+    /// Each copy as a body of that one piece, to join others into.
+    fn one_piece_bodies(&self) -> Vec<BodyCopy> {
+        self.copies
+            .iter()
+            .map(|&(piece, pose, residual)| BodyCopy {
+                pieces: vec![piece],
+                pose,
+                residual,
+            })
+            .collect()
+    }
+
     /// The copy that `pose` moves the original onto, if any: where the
     /// copy's pose moves the corners as `pose` does, or, a symmetric piece
     /// being stored turned, where the two poses differ by a symmetry of
@@ -227,13 +252,11 @@ fn piece_families(
         .into_values()
         .map(|copies| {
             let original = &pieces[copies[0].0];
-            let mut ids: Vec<u32> = original
-                .iter()
-                .flat_map(|&t| mesh.triangles()[t as usize])
+            let vertices: Vec<Vec3> = mesh
+                .vertices_of(original)
+                .into_iter()
+                .map(|v| mesh.vertex(v))
                 .collect();
-            ids.sort_unstable();
-            ids.dedup();
-            let vertices: Vec<Vec3> = ids.into_iter().map(|v| mesh.vertex(v)).collect();
             let centroid = vertices.iter().copied().sum::<Vec3>() / vertices.len() as f64;
             let bounds = Aabb::around(vertices.iter().copied()).expect("a piece has triangles");
             let size = bounds.max.distance(bounds.min);
@@ -282,15 +305,7 @@ pub(super) fn bodies(mesh: &TriMesh, pieces: &[Vec<u32>], copies: &[Option<CopyO
                 continue;
             }
             let a = &families[anchor];
-            let mut body: Vec<BodyCopy> = a
-                .copies
-                .iter()
-                .map(|&(piece, pose, residual)| BodyCopy {
-                    pieces: vec![piece],
-                    pose,
-                    residual,
-                })
-                .collect();
+            let mut body = a.one_piece_bodies();
             let mut members = 1;
             for &other in &same_count[k + 1..] {
                 if joined[other] {
@@ -336,15 +351,7 @@ pub(super) fn one_body(
         return None;
     }
     let anchor = families.iter().min_by_key(|f| f.copies.len())?;
-    let mut body: Vec<BodyCopy> = anchor
-        .copies
-        .iter()
-        .map(|&(piece, pose, residual)| BodyCopy {
-            pieces: vec![piece],
-            pose,
-            residual,
-        })
-        .collect();
+    let mut body = anchor.one_piece_bodies();
     for family in &families {
         if std::ptr::eq(family, anchor) {
             continue;

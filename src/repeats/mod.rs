@@ -19,8 +19,7 @@ pub use congruent::{CopyOf, MirrorImages, congruent_parts};
 use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{
-    TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere, stored_pieces,
-    weld_vertices_on,
+    TriMesh, connected_components, minimal_bounding_sphere, stored_pieces, weld_vertices_on,
 };
 
 /// One place a repeated part stands.
@@ -158,12 +157,7 @@ fn family_of(mesh: &TriMesh, pieces: &[Vec<u32>], group: bodies::Body) -> Family
         .copies
         .into_iter()
         .map(|copy| {
-            let mut triangles: Vec<u32> = copy
-                .pieces
-                .iter()
-                .flat_map(|&p| pieces[p].iter().copied())
-                .collect();
-            triangles.sort_unstable();
+            let triangles = copy.triangles(pieces);
             RepeatCopy {
                 pose: copy.pose.to_rows(),
                 residual: copy.residual,
@@ -182,16 +176,12 @@ fn family_of(mesh: &TriMesh, pieces: &[Vec<u32>], group: bodies::Body) -> Family
 }
 
 /// The minimal bounding sphere of `triangles`' vertices: centre, radius.
-pub(super) fn bounding_sphere(mesh: &TriMesh, triangles: &[u32]) -> (Vec3, f64) {
-    let mut numbering = VertexNumbering::for_part(mesh, triangles);
-    let mut vertices = Vec::new();
-    for &t in triangles {
-        for v in mesh.triangles()[t as usize] {
-            if numbering.number(v).1 {
-                vertices.push(mesh.vertex(v));
-            }
-        }
-    }
+fn bounding_sphere(mesh: &TriMesh, triangles: &[u32]) -> (Vec3, f64) {
+    let vertices: Vec<Vec3> = mesh
+        .vertices_of(triangles)
+        .into_iter()
+        .map(|v| mesh.vertex(v))
+        .collect();
     minimal_bounding_sphere(&vertices).map_or((Vec3::ZERO, 0.0), |s| (s.center, s.radius))
 }
 

@@ -35,12 +35,7 @@ pub(super) fn copies_within(
         .iter()
         .enumerate()
         .map(|(c, copy)| {
-            let mut triangles: Vec<u32> = copy
-                .pieces
-                .iter()
-                .flat_map(|&p| stored[p].iter().copied())
-                .collect();
-            triangles.sort_unstable();
+            let triangles = copy.triangles(stored);
             for &t in &triangles {
                 copy_of.insert(t, c);
             }
