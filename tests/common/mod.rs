@@ -191,22 +191,30 @@ pub fn score(truth: &serde_json::Value, report: &MatchReport, select: bool) -> S
         .get("tolerance")
         .and_then(|t| t.as_f64())
         .unwrap_or(0.2);
-    let (targets, radius): (Vec<[f64; 3]>, f64) = if select {
+    // Per target, the places its c_T may be reported at: through any of
+    // the template's symmetries.
+    let (targets, radius): (Vec<Vec<[f64; 3]>>, f64) = if select {
         let s = &truth["select"];
         let t = s["expected"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|e| [0, 1, 2].map(|i| e[i].as_f64().unwrap()))
+            .map(|e| vec![[0, 1, 2].map(|i| e[i].as_f64().unwrap())])
             .collect();
         (t, s["radius"].as_f64().unwrap())
     } else {
         let c = report.template.center;
+        let centres: Vec<[f64; 3]> = match truth.get("template_symmetries") {
+            Some(serde_json::Value::Array(s)) if !s.is_empty() => {
+                s.iter().map(|s| apply(s, c)).collect()
+            }
+            _ => vec![c],
+        };
         let t = truth["instances"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|i| apply(&i["transform"], c))
+            .map(|i| centres.iter().map(|&c| apply(&i["transform"], c)).collect())
             .collect();
         (
             t,
@@ -222,7 +230,7 @@ pub fn score(truth: &serde_json::Value, report: &MatchReport, select: bool) -> S
         .map(|i| {
             targets
                 .iter()
-                .map(|t| dist(i.position, *t) < tol * radius)
+                .map(|t| t.iter().any(|&t| dist(i.position, t) < tol * radius))
                 .collect()
         })
         .collect();

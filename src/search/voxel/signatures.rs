@@ -12,10 +12,15 @@
 //! phases half a voxel apart, which is what a face square to that axis
 //! sees (a face at an angle sees a staircase whatever the phase). The
 //! template's own phase error averages out, and only the copy's is left
-//! to the thresholds. The anchors stay the same
-//! voxels (each shifted point's nearest), and verification still places
-//! the unshifted template. A selection is read from the scene's voxels,
-//! whose phase its copies share.
+//! to the thresholds. Each phase is read where its skin holds the anchor's
+//! point: the template's grid starts a voxel below its box, so its lowest
+//! faces lie on voxel boundaries, and a quarter voxel's shift down puts
+//! them in the voxel below. Read at the unshifted anchor, that phase saw
+//! the anchor a voxel deep, which no copy's skin voxel ever is: a tower
+//! whose c_T lies on such a face read 0.68 for its smallest ball where its
+//! copies read 0.54-0.56, and lost them all. Verification still places the
+//! unshifted template. A selection is read from the scene's voxels, whose
+//! phase its copies share.
 
 use crate::descriptor::centroid::BASE_TOLERANCE;
 use crate::descriptor::harmonics::Signature as HarmonicsSignature;
@@ -26,7 +31,7 @@ use crate::error::Result;
 use crate::math::Vec3;
 use crate::options::{DescriptorKind, MatchOptions};
 use crate::template::{TemplateSource, VoxelTemplate};
-use crate::voxel::{Ball, BallMoment, Solid, voxelize};
+use crate::voxel::{Ball, BallMoment, Grid, Solid, voxelize};
 
 /// Per anchor, the template's volume signature and, unless only the volume
 /// is searched, its harmonics one; where both are, its centroid readings.
@@ -56,10 +61,9 @@ pub(super) fn signatures(
     transform: &SphericalTransform,
     options: &MatchOptions,
 ) -> Result<Signatures> {
-    let read = |solid: &Solid| PhaseReading {
-        signatures: read_at_anchors(solid, template, balls, transform, options),
-        centroid: template
-            .anchors()
+    let read = |solid: &Solid, anchors: &[[u16; 3]]| PhaseReading {
+        signatures: read_at_anchors(solid, anchors, template, balls, transform, options),
+        centroid: anchors
             .iter()
             .map(|&a| CentroidDescriptor::describe(solid, a, centroid_balls, options.backend))
             .collect(),
@@ -76,7 +80,7 @@ pub(super) fn signatures(
         signatures
     };
     let TemplateSource::Model(model) = source else {
-        let one = read(template.voxels().solid());
+        let one = read(template.voxels().solid(), template.anchors());
         return Ok(with_centroid(one.signatures, &[one.centroid]));
     };
     let spec = template.voxels().grid().spec();
@@ -87,8 +91,13 @@ pub(super) fn signatures(
         // The grid is padded by a voxel on every side: a quarter voxel's
         // shift stays inside it.
         let shifted = model.map_positions(|p| p + shift)?;
-        // The solid only: the signatures need no skin.
-        let these = read(&Solid::new(voxelize(&shifted, spec, options.backend)));
+        let solid = Solid::new(voxelize(&shifted, spec, options.backend));
+        let anchors: Vec<[u16; 3]> = template
+            .anchors()
+            .iter()
+            .map(|&a| phase_anchor(solid.bits(), a, along))
+            .collect();
+        let these = read(&solid, &anchors);
         phases.push(these.centroid);
         sum = Some(match sum {
             None => these.signatures,
@@ -161,15 +170,57 @@ fn centroid_templates(
         .collect()
 }
 
+/// How far from an anchor, in voxels along each axis, a phase's skin is
+/// looked for: a quarter voxel's shift moves a face by at most one voxel.
+const PHASE_REACH: i64 = 2;
+
+/// The skin voxel of `solid` (the template moved by `shift` voxels along
+/// every axis) nearest to where `anchor`'s centre moved, within
+/// [`PHASE_REACH`]; `anchor` itself where none is (a thin part's skin
+/// moves with it, so there is always one).
+fn phase_anchor(solid: &Grid, anchor: [u16; 3], shift: f64) -> [u16; 3] {
+    let at = anchor.map(i64::from);
+    let is_skin = |v: [i64; 3]| {
+        solid.get(v[0], v[1], v[2])
+            && (0..3).any(|k| {
+                [-1, 1].iter().any(|&d| {
+                    let mut n = v;
+                    n[k] += d;
+                    !solid.get(n[0], n[1], n[2])
+                })
+            })
+    };
+    let mut best: Option<(f64, [i64; 3])> = None;
+    let reach = -PHASE_REACH..=PHASE_REACH;
+    for dz in reach.clone() {
+        for dy in reach.clone() {
+            for dx in reach.clone() {
+                let v = [at[0] + dx, at[1] + dy, at[2] + dz];
+                if !is_skin(v) {
+                    continue;
+                }
+                let d2 = [dx, dy, dz]
+                    .iter()
+                    .map(|&d| (d as f64 - shift).powi(2))
+                    .sum::<f64>();
+                if best.is_none_or(|(b, _)| d2 < b) {
+                    best = Some((d2, v));
+                }
+            }
+        }
+    }
+    best.map_or(anchor, |(_, v)| v.map(|c| c as u16))
+}
+
 fn read_at_anchors(
     solid: &Solid,
+    anchors: &[[u16; 3]],
     template: &VoxelTemplate,
     balls: &[Ball],
     transform: &SphericalTransform,
     options: &MatchOptions,
 ) -> Signatures {
     let backend = options.backend;
-    let anchors = template.anchors();
     Signatures {
         volume: anchors
             .iter()
@@ -214,5 +265,78 @@ impl Signatures {
             *x *= factor as f32;
         }
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exec::Threads;
+    use crate::mesh::shapes::cuboid;
+    use crate::scene::{Scene, SceneOptions};
+
+    /// A tower's shaft: the faces nearest its centre are its long sides,
+    /// square to the grid. Turned half way about the vertical, the side
+    /// c_T takes lies at the other end of the template's grid, whose lowest
+    /// faces sit on voxel boundaries: one of the two lands there.
+    fn shaft(turned: bool) -> TemplateSource {
+        let s = if turned { -1.0 } else { 1.0 };
+        let box_ = cuboid(Vec3::new(-12.5, -9.0, 0.0), Vec3::new(12.5, 9.0, 47.0));
+        TemplateSource::Model(
+            box_.map_positions(|p| Vec3::new(s * p.x, s * p.y, p.z))
+                .unwrap(),
+        )
+    }
+
+    #[test]
+    fn a_face_square_to_the_grid_reads_alike_at_every_phase() {
+        // A skin voxel on a flat face square to the grid lies half a voxel
+        // inside the solid's boundary whatever the face's phase, so its
+        // balls read the same: the mean over the phases must be the
+        // unshifted reading. Read at the unshifted anchor, a face on a
+        // voxel boundary was a voxel deep in one phase (here the mean of
+        // the smallest ball was 0.540 against 0.520).
+        for turned in [false, true] {
+            let source = shaft(turned);
+            let TemplateSource::Model(model) = &source else {
+                unreachable!()
+            };
+            let scene_options = SceneOptions::DEFAULT.with_backend(Threads::Serial);
+            let scene = Scene::new(model.clone(), &scene_options).unwrap();
+            let options = MatchOptions {
+                backend: Threads::Serial,
+                ..MatchOptions::DEFAULT
+            };
+            let lattice = scene
+                .lattice_for(source.bounding_radius(), options.template_voxels)
+                .unwrap();
+            let template = VoxelTemplate::new(&source, &scene, &lattice, &options).unwrap();
+            let voxel = lattice.spec.voxel_size;
+            let balls = VolumeDescriptor::balls_at(template.radii(), voxel, Threads::Serial);
+            let centroid_balls = CentroidDescriptor::balls_like(&balls, Threads::Serial);
+            let read = signatures(
+                &source,
+                &template,
+                &balls,
+                &centroid_balls,
+                &SphericalTransform::new(),
+                &options,
+            )
+            .unwrap();
+            let anchor = template.anchors()[0];
+            let unshifted = VolumeDescriptor::describe_with(
+                template.voxels().solid(),
+                anchor,
+                &balls,
+                Threads::Serial,
+            );
+            for layer in 0..2 {
+                let (mean, one) = (read.volume[0][layer], unshifted[layer]);
+                assert!(
+                    (mean - one).abs() < 0.01,
+                    "turned {turned}, layer {layer}: {mean} over the phases, {one} unshifted"
+                );
+            }
+        }
     }
 }
