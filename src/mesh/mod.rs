@@ -355,7 +355,7 @@ impl F32Box {
 }
 
 /// A triangle has no area when two corners coincide or all three are collinear.
-fn is_degenerate(positions: &[[f32; 3]], [a, b, c]: [u32; 3]) -> bool {
+pub(crate) fn is_degenerate(positions: &[[f32; 3]], [a, b, c]: [u32; 3]) -> bool {
     if a == b || b == c || a == c {
         return true;
     }

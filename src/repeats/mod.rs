@@ -11,10 +11,12 @@
 
 mod bodies;
 mod congruent;
+mod instanced;
 mod mirrors;
 mod overlaps;
 
 pub use congruent::{CopyOf, MirrorImages, congruent_parts};
+pub use instanced::{Instanced, Placement, instanced_model, split_by_material};
 
 use crate::exec::Threads;
 use crate::math::Vec3;

@@ -15,7 +15,7 @@ use fast_reject::error::FileText;
 use fast_reject::exec::Threads;
 use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
-use fast_reject::mesh::io::{load_with_resources, sniff};
+use fast_reject::mesh::io::{Model, load_model, load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
 use fast_reject::search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
 use folder_resolver::FolderResolver;
@@ -311,6 +311,25 @@ fn parse_select(s: &str) -> Result<TemplateSource, String> {
 
 /// Reads and parses a mesh file; `.gltf` files may refer to buffers beside them.
 fn load_file(path: &Path) -> Result<TriMesh, String> {
+    read_file(path, |bytes, format, resolver| {
+        load_with_resources(bytes, format, resolver)
+    })
+}
+
+/// The model in the file at `path`, with what a viewer draws (see
+/// [`fast_reject::mesh::io::load_model`]).
+fn load_model_file(path: &Path) -> Result<Model, String> {
+    read_file(path, |bytes, format, resolver| {
+        load_model(bytes, format, resolver)
+    })
+}
+
+/// `load` on the bytes of the file at `path`, with its format and a
+/// resolver for the files beside it.
+fn read_file<T>(
+    path: &Path,
+    load: impl FnOnce(&[u8], Option<Format>, &FolderResolver) -> fast_reject::Result<T>,
+) -> Result<T, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", shown(path)))?;
     // The content first: a .glb saved as .obj is still a glTF. The
     // extension names the parser whose error a user sees when the content
@@ -322,7 +341,7 @@ fn load_file(path: &Path) -> Result<TriMesh, String> {
     });
     let resolver = FolderResolver::beside(path)
         .map_err(|e| format!("cannot find the folder of '{}': {e}", shown(path)))?;
-    load_with_resources(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", shown(path)))
+    load(&bytes, format, &resolver).map_err(|e| format!("'{}': {e}", shown(path)))
 }
 
 /// A path for a message: a file's name is anyone's text (a downloaded

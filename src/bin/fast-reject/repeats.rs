@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 
 use fast_reject::exec::Threads;
+use fast_reject::mesh::io::write_glb;
+use fast_reject::repeats::{Placement, instanced_model, split_by_material};
 use fast_reject::{Family, find_repeats};
 
 #[derive(clap::Args)]
@@ -14,22 +16,76 @@ pub struct RepeatsArgs {
     /// bench/evaluate_families.py).
     #[arg(long)]
     json: bool,
+    /// Write the scene as an instanced binary glTF: each repeated part
+    /// stored once, every copy a node that places it, the rest as it was.
+    #[arg(long, value_name = "FILE.glb")]
+    out: Option<PathBuf>,
+    /// With --out: place each repeated part's copies with
+    /// EXT_mesh_gpu_instancing, one node per part.
+    #[arg(long, requires = "out")]
+    gpu_instancing: bool,
 }
 
 pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
     let start = std::time::Instant::now();
-    let mesh = super::load_file(&args.scene)?;
+    let model = super::load_model_file(&args.scene)?;
+    let (mesh, sources) = model
+        .placed()
+        .map_err(|e| format!("'{}': {e}", super::shown(&args.scene)))?;
     let loaded = start.elapsed().as_secs_f64() * 1e3;
     let families = find_repeats(&mesh, Threads::Parallel);
+    // Parts with different materials are different parts.
+    let families = split_by_material(&model, &mesh, &sources, families);
     let found = start.elapsed().as_secs_f64() * 1e3 - loaded;
+    let mut written = None;
+    let mut kept_copies = 0;
+    if let Some(out) = &args.out {
+        let placement = match args.gpu_instancing {
+            true => Placement::GpuInstancing,
+            false => Placement::Nodes,
+        };
+        let instanced = instanced_model(&model, &mesh, &sources, &families, placement);
+        kept_copies = instanced.kept_copies;
+        let instanced = instanced.model;
+        let bytes =
+            write_glb(&instanced).map_err(|e| format!("cannot write the instanced model: {e}"))?;
+        std::fs::write(out, &bytes)
+            .map_err(|e| format!("cannot write '{}': {e}", super::shown(out)))?;
+        let nodes: usize = instanced.nodes.iter().map(|n| n.placements.len()).sum();
+        written = Some((bytes.len(), instanced.meshes.len(), nodes));
+    }
+    let wrote = start.elapsed().as_secs_f64() * 1e3 - loaded - found;
     if args.json {
-        let value = serde_json::json!({
+        let mut value = serde_json::json!({
             "families": families,
             "timings_ms": { "load": loaded, "repeats": found },
         });
+        if let Some((bytes, meshes, nodes)) = written {
+            value["written"] = serde_json::json!({
+                "bytes": bytes,
+                "meshes": meshes,
+                "nodes": nodes,
+                "copies_kept_as_they_were": kept_copies,
+            });
+            value["timings_ms"]["write"] = serde_json::json!(wrote);
+        }
         return super::write_out(&value.to_string());
     }
-    super::write_out(&table(&families, mesh.triangles().len(), loaded, found))
+    let mut text = table(&families, mesh.triangles().len(), loaded, found);
+    if let (Some(out), Some((bytes, meshes, nodes))) = (&args.out, written) {
+        text += &format!(
+            "\nwrote '{}': {bytes} bytes, {meshes} meshes, {nodes} placements ({wrote:.0} ms)",
+            super::shown(out)
+        );
+        if kept_copies > 0 {
+            text += &format!(
+                "; {kept_copies} cop{} kept as {} were: a turned symmetric piece meshed otherwise",
+                if kept_copies == 1 { "y" } else { "ies" },
+                if kept_copies == 1 { "it" } else { "they" }
+            );
+        }
+    }
+    super::write_out(&text)
 }
 
 /// The families as a table, the largest share of the scene first.

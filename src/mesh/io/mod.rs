@@ -11,11 +11,13 @@
 //! including truncated files, and never panics.
 
 mod gltf;
+pub mod model;
 mod obj;
 mod ply;
 mod resource;
 mod stl;
 
+pub use model::Model;
 pub use resource::{NoResources, ResourceError, ResourcePath, ResourceResolver};
 
 use super::TriMesh;
@@ -102,6 +104,29 @@ pub fn peak_load_bytes(head: &[u8], len: u64, max_mesh_bytes: u64) -> u64 {
     };
     let mesh = len.saturating_mul(per_byte).min(max_mesh_bytes);
     len.saturating_add(mesh.saturating_mul(if doubling { 2 } else { 1 }))
+}
+
+/// Loads a model from bytes, with what a viewer draws besides the
+/// triangles (a glTF's attributes, materials and images), to be written
+/// back changed ([`write_glb`]); the other formats give their positions.
+/// [`Model::placed`] is the mesh [`load_with_resources`] gives.
+pub fn load_model(
+    bytes: &[u8],
+    format: Option<Format>,
+    resources: &dyn ResourceResolver,
+) -> Result<Model> {
+    match format.or_else(|| sniff(bytes)) {
+        Some(Format::Gltf) => gltf::read_model(bytes, resources, SizeLimit::new(u64::MAX)),
+        _ => Ok(Model::of_mesh(&load_with_resources(
+            bytes, format, resources,
+        )?)),
+    }
+}
+
+/// `model` as a binary glTF: a node per [`model::ModelNode`], one that
+/// places its mesh more than once with `EXT_mesh_gpu_instancing`.
+pub fn write_glb(model: &Model) -> Result<Vec<u8>> {
+    gltf::write_glb(model)
 }
 
 /// Loads a mesh from bytes; `format` `None` means: recognize it from the content.

@@ -269,7 +269,7 @@ impl Loader<'_> {
 
 /// One little-endian component as f32 (integer positions come from
 /// KHR_mesh_quantization; normalized ones map to [-1, 1] or [0, 1]).
-fn component_to_f32(b: &[u8], t: DataType, normalized: bool) -> f32 {
+pub(super) fn component_to_f32(b: &[u8], t: DataType, normalized: bool) -> f32 {
     match t {
         DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
         DataType::I8 => {

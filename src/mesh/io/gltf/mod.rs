@@ -18,8 +18,13 @@ use crate::error::{Error, Format, Result};
 use crate::mesh::{Part, TriMesh};
 
 mod accessor;
+mod model;
 #[cfg(test)]
 mod tests;
+mod write;
+
+pub(crate) use model::read_model;
+pub(crate) use write::write_glb;
 
 /// Deeper node nesting than this is treated as a cycle (validation does not catch them).
 const MAX_DEPTH: usize = 256;
@@ -39,6 +44,15 @@ pub(super) fn parse(
     resources: &dyn ResourceResolver,
     limit: SizeLimit,
 ) -> Result<TriMesh> {
+    let gltf = read_document(bytes)?;
+    let mut loader = Loader::new(&gltf, bytes.len(), limit, resources);
+    loader.visit_scene(&gltf)?;
+    loader.place_all();
+    TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
+}
+
+/// The document, parsed and validated, after the checks on its start.
+fn read_document(bytes: &[u8]) -> Result<gltf::Gltf> {
     check_glb_header(bytes)?;
     // A file named .glb that is neither (a text file, an archive) would
     // fail in the JSON reader, "expected value at line 1 column 1".
@@ -55,41 +69,56 @@ pub(super) fn parse(
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| Error::malformed(Format::Gltf, "document", e.to_string()))?;
     validate(&gltf.document)?;
-    let mut loader = Loader {
-        input_len: bytes.len(),
-        limit,
-        buffers: vec![None; gltf.buffers().len()],
-        resource_lengths: resource_lengths(&gltf.document),
-        resources_read: HashMap::new(),
-        blob: gltf.blob.as_deref(),
-        resources,
-        meshes: HashMap::new(),
-        visited: vec![false; gltf.nodes().len()],
-        positions: Vec::new(),
-        triangles: Vec::new(),
-        parts: Vec::new(),
-        placements: Vec::new(),
-        placed_vertices: 0,
-        placed_triangles: 0,
-    };
-    let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        // No scene: every node that is nobody's child is a root.
-        None => {
-            let mut is_child = vec![false; gltf.nodes().len()];
-            for n in gltf.nodes() {
-                for c in n.children() {
-                    is_child[c.index()] = true;
-                }
-            }
-            gltf.nodes().filter(|n| !is_child[n.index()]).collect()
+    Ok(gltf)
+}
+
+impl<'a> Loader<'a> {
+    fn new(
+        gltf: &'a gltf::Gltf,
+        input_len: usize,
+        limit: SizeLimit,
+        resources: &'a dyn ResourceResolver,
+    ) -> Loader<'a> {
+        Loader {
+            input_len,
+            limit,
+            buffers: vec![None; gltf.buffers().len()],
+            resource_lengths: resource_lengths(&gltf.document),
+            resources_read: HashMap::new(),
+            blob: gltf.blob.as_deref(),
+            resources,
+            meshes: HashMap::new(),
+            visited: vec![false; gltf.nodes().len()],
+            positions: Vec::new(),
+            triangles: Vec::new(),
+            parts: Vec::new(),
+            placements: Vec::new(),
+            placed_vertices: 0,
+            placed_triangles: 0,
         }
-    };
-    for node in roots {
-        loader.visit(&node, &IDENTITY, 0)?;
     }
-    loader.place_all();
-    TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
+
+    /// Visits the default scene's nodes (or, without scenes, every node
+    /// that is nobody's child), collecting the placements.
+    fn visit_scene(&mut self, gltf: &gltf::Gltf) -> Result<()> {
+        let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
+            Some(scene) => scene.nodes().collect(),
+            // No scene: every node that is nobody's child is a root.
+            None => {
+                let mut is_child = vec![false; gltf.nodes().len()];
+                for n in gltf.nodes() {
+                    for c in n.children() {
+                        is_child[c.index()] = true;
+                    }
+                }
+                gltf.nodes().filter(|n| !is_child[n.index()]).collect()
+            }
+        };
+        for node in roots {
+            self.visit(&node, &IDENTITY, 0)?;
+        }
+        Ok(())
+    }
 }
 
 /// A GLB's 12-byte header, checked before the `gltf` crate reads it: 1.4.1
@@ -272,8 +301,9 @@ struct Loader<'a> {
     triangles: Vec<[u32; 3]>,
     /// One per placed mesh, so that instances of a mesh are known as such.
     parts: Vec<Part>,
-    /// Each node's world transform and mesh, to be placed once all are counted.
-    placements: Vec<(Mat4, usize)>,
+    /// Each node's world transform, mesh and index, to be placed once all
+    /// are counted.
+    placements: Vec<(Mat4, usize, usize)>,
     placed_vertices: usize,
     placed_triangles: usize,
 }
@@ -311,7 +341,7 @@ impl Loader<'_> {
             self.placed_triangles += m.triangles.len();
             self.limit
                 .check(self.placed_vertices, self.placed_triangles)?;
-            self.placements.push((world, mesh.index()));
+            self.placements.push((world, mesh.index(), node.index()));
         }
         for child in node.children() {
             self.visit(&child, &world, depth + 1)?;
@@ -324,8 +354,11 @@ impl Loader<'_> {
     fn place_all(&mut self) {
         self.positions.reserve_exact(self.placed_vertices);
         self.triangles.reserve_exact(self.placed_triangles);
-        for (world, mesh) in std::mem::take(&mut self.placements) {
+        for (world, mesh, _) in std::mem::take(&mut self.placements) {
             let m = &self.meshes[&mesh];
+            // A mirroring node turns its triangles inside out: glTF reads
+            // their corners the other way round there.
+            let turned = determinant(&world) < 0.0;
             let base = self.positions.len() as u32;
             self.parts.push(Part {
                 first_vertex: base,
@@ -336,8 +369,10 @@ impl Loader<'_> {
             });
             self.positions
                 .extend(m.positions.iter().map(|&p| transform(&world, p)));
-            self.triangles
-                .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+            self.triangles.extend(m.triangles.iter().map(|&[a, b, c]| {
+                let corners = if turned { [a, c, b] } else { [a, b, c] };
+                corners.map(|i| i + base)
+            }));
         }
     }
 
@@ -425,6 +460,12 @@ fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
         }
     }
     m
+}
+
+/// The determinant of a column-major transform's linear part.
+fn determinant(m: &Mat4) -> f64 {
+    let row_major: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| m[c][r]));
+    crate::mesh::io::model::determinant(&row_major)
 }
 
 fn transform(m: &Mat4, p: [f32; 3]) -> [f32; 3] {
