@@ -8,7 +8,7 @@ mod common;
 use common::scene_dir;
 use fast_reject::exec::Threads;
 use fast_reject::math::Vec3;
-use fast_reject::mesh::io::model::TriangleSource;
+use fast_reject::mesh::io::model::{Attribute, Primitive, TriangleSource};
 use fast_reject::mesh::io::{Model, NoResources, load, load_model, write_glb};
 use fast_reject::mesh::{TriMesh, minimal_bounding_sphere};
 use fast_reject::repeats::{Placement, instanced_model, split_by_material};
@@ -524,4 +524,183 @@ fn the_saw_written_instanced_keeps_every_triangle_and_every_family() {
             bytes.len()
         );
     }
+}
+
+/// A cube of side 2 about the origin, as exporters write one: four
+/// vertices a face with the face's normal and texture coordinates, faces
+/// turned outwards.
+fn textured_cube() -> Primitive {
+    let (mut position, mut normal, mut uv, mut triangles) = (vec![], vec![], vec![], vec![]);
+    for axis in 0..3 {
+        for side in [-1.0f32, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = position.len() as u32 / 3;
+            for (k, (a, b)) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .into_iter()
+                .enumerate()
+            {
+                let mut p = [0.0f32; 3];
+                p[axis] = side;
+                p[u] = a;
+                p[v] = b;
+                position.extend(p);
+                let mut n = [0.0f32; 3];
+                n[axis] = side;
+                normal.extend(n);
+                uv.extend([
+                    0.25 * k as f32 + 0.1 * axis as f32,
+                    0.5 * side + 0.01 * k as f32,
+                ]);
+            }
+            let quad = if side > 0.0 {
+                [0, 1, 2, 0, 2, 3]
+            } else {
+                [0, 2, 1, 0, 3, 2]
+            };
+            for t in quad.chunks(3) {
+                triangles.push([base + t[0], base + t[1], base + t[2]]);
+            }
+        }
+    }
+    let attribute = |semantic: &str, width, values| Attribute {
+        semantic: semantic.to_string(),
+        width,
+        values,
+    };
+    Primitive {
+        attributes: vec![
+            attribute("POSITION", 3, position),
+            attribute("NORMAL", 3, normal),
+            attribute("TEXCOORD_0", 2, uv),
+        ],
+        triangles,
+        material: None,
+    }
+}
+
+/// Every corner a model draws: where it stands, which way it faces, its
+/// texture coordinates and its material, rounded, in one sorted list.
+fn drawn_corners(model: &Model) -> Vec<[i64; 9]> {
+    let mut corners = Vec::new();
+    for node in &model.nodes {
+        for m in &node.placements {
+            let linear = glam::DMat3::from_cols_array_2d(&[
+                [m[0][0], m[1][0], m[2][0]],
+                [m[0][1], m[1][1], m[2][1]],
+                [m[0][2], m[1][2], m[2][2]],
+            ]);
+            let normals = linear.inverse().transpose();
+            for primitive in &model.meshes[node.mesh].primitives {
+                let values = |semantic: &str| {
+                    &primitive
+                        .attributes
+                        .iter()
+                        .find(|a| a.semantic == semantic)
+                        .unwrap()
+                        .values
+                };
+                let (p, n, uv) = (values("POSITION"), values("NORMAL"), values("TEXCOORD_0"));
+                for &v in primitive.triangles.iter().flatten() {
+                    let v = v as usize;
+                    let at = apply(m, [0, 1, 2].map(|k| f64::from(p[3 * v + k])));
+                    let facing = (normals
+                        * glam::DVec3::from_array([0, 1, 2].map(|k| f64::from(n[3 * v + k]))))
+                    .normalize();
+                    let round = |x: f64, step: f64| (x / step).round() as i64;
+                    corners.push([
+                        round(at[0], 1e-4),
+                        round(at[1], 1e-4),
+                        round(at[2], 1e-4),
+                        round(facing.x, 1e-3),
+                        round(facing.y, 1e-3),
+                        round(facing.z, 1e-3),
+                        round(uv[2 * v].into(), 1e-5),
+                        round(uv[2 * v + 1].into(), 1e-5),
+                        primitive.material.map_or(-1, i64::from),
+                    ]);
+                }
+            }
+        }
+    }
+    corners.sort_unstable();
+    corners
+}
+
+#[test]
+fn copies_drawn_in_other_materials_are_other_parts_and_keep_their_attributes() {
+    use fast_reject::mesh::io::model::{MaterialTable, ModelMesh, ModelNode};
+    use glam::{DMat3, DQuat};
+    let place = |turn: f64, mirrored: bool, at: [f64; 3]| -> Matrix {
+        let axis = Vec3::new(0.3, 1.0, 0.2 + turn).normalize();
+        let mut r = DMat3::from_quat(DQuat::from_axis_angle(axis, 1.3 * turn + 0.4));
+        if mirrored {
+            r *= DMat3::from_diagonal(Vec3::new(1.0, -1.0, 1.0));
+        }
+        std::array::from_fn(|i| match i {
+            3 => [0.0, 0.0, 0.0, 1.0],
+            _ => [r.col(0)[i], r.col(1)[i], r.col(2)[i], at[i]],
+        })
+    };
+    let cube = textured_cube();
+    let mesh = |name: &str, material| ModelMesh {
+        name: Some(name.to_string()),
+        primitives: vec![Primitive {
+            material: Some(material),
+            ..cube.clone()
+        }],
+    };
+    // Three red cubes and two blue ones, one of them a mirror image, each a
+    // node of its own as a flattened export has them.
+    let placements = [
+        (0, 0.0, false),
+        (0, 1.0, false),
+        (0, 2.0, false),
+        (1, 3.0, false),
+        (1, 4.0, true),
+    ];
+    let input = Model {
+        meshes: vec![mesh("red", 0), mesh("blue", 1)],
+        nodes: placements
+            .iter()
+            .enumerate()
+            .map(|(k, &(m, turn, mirrored))| ModelNode {
+                name: Some(format!("cube {k}")),
+                mesh: m,
+                placements: vec![place(turn, mirrored, [10.0 * k as f64, 0.0, 0.0])],
+            })
+            .collect(),
+        materials: MaterialTable {
+            materials: vec![
+                serde_json::json!({ "name": "red", "pbrMetallicRoughness": { "baseColorFactor": [1, 0, 0, 1] } }),
+                serde_json::json!({ "name": "blue", "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 1, 1] } }),
+            ],
+            ..MaterialTable::default()
+        },
+    };
+    let bytes = write_glb(&input).unwrap();
+    let model = load_model(&bytes, None, &NoResources).unwrap();
+    let (mesh, sources) = model.placed().unwrap();
+    let alike = find_repeats(&mesh, Threads::Parallel);
+    // The shape alone: one part, five copies.
+    assert_eq!(
+        alike.iter().map(|f| f.copies.len()).collect::<Vec<_>>(),
+        [5]
+    );
+    let families = split_by_material(&model, &mesh, &sources, alike);
+    assert_eq!(
+        families.iter().map(|f| f.copies.len()).collect::<Vec<_>>(),
+        [3, 2]
+    );
+    assert_eq!(families[1].copies.iter().filter(|c| c.mirrored).count(), 1);
+    let instanced = instanced_model(&model, &mesh, &sources, &families, Placement::Nodes);
+    assert_eq!(instanced.kept_copies, 0);
+    let back = load_model(&write_glb(&instanced.model).unwrap(), None, &NoResources).unwrap();
+    // One mesh per material, placed five times, drawing what the input drew.
+    assert_eq!(back.meshes.len(), 2);
+    assert_eq!(back.nodes.len(), 5);
+    assert_eq!(back.materials.materials, input.materials.materials);
+    assert_eq!(drawn_corners(&back), drawn_corners(&input));
+    let (out, _) = back.placed().unwrap();
+    assert_eq!(unmatched_triangles(&mesh, &out, 1e-5), 0);
+    assert_eq!(unmatched_triangles(&out, &mesh, 1e-5), 0);
 }

@@ -46,14 +46,19 @@ pub fn instanced_model(
     let mut kept_copies = 0;
     let mut residual = 0.0f64;
     let mut written: Vec<Family> = Vec::with_capacity(families.len());
+    let placed = Placed {
+        model,
+        mesh,
+        sources,
+    };
     for family in families {
         if family.copies[1..]
             .iter()
-            .all(|copy| reproduces(mesh, &family.copies[0].triangles, copy))
+            .all(|copy| placed.reproduces(&family.copies[0].triangles, copy))
         {
             written.push(family.clone());
         } else {
-            written.extend(reproduced_families(mesh, family));
+            written.extend(reproduced_families(&placed, family));
         }
     }
     for (f, family) in written.iter().enumerate() {
@@ -64,7 +69,7 @@ pub fn instanced_model(
         let exact: Vec<&RepeatCopy> = family
             .copies
             .iter()
-            .filter(|copy| reproduces(mesh, &family.copies[0].triangles, copy))
+            .filter(|copy| placed.reproduces(&family.copies[0].triangles, copy))
             .collect();
         kept_copies += family.copies.len() - exact.len();
         if exact.len() < 2 {
@@ -73,7 +78,7 @@ pub fn instanced_model(
         residual = exact.iter().map(|c| c.residual).fold(residual, f64::max);
         out.meshes.push(family_mesh(model, sources, family, f));
         let m = out.meshes.len() - 1;
-        let placed: Vec<(Option<String>, Matrix)> = exact
+        let nodes: Vec<(Option<String>, Matrix)> = exact
             .iter()
             .map(|copy| {
                 (
@@ -90,7 +95,7 @@ pub fn instanced_model(
         match placement {
             Placement::Nodes => out
                 .nodes
-                .extend(placed.into_iter().map(|(name, at)| ModelNode {
+                .extend(nodes.into_iter().map(|(name, at)| ModelNode {
                     name,
                     mesh: m,
                     placements: vec![at],
@@ -98,7 +103,7 @@ pub fn instanced_model(
             Placement::GpuInstancing => out.nodes.push(ModelNode {
                 name: Some(format!("repeat {f}")),
                 mesh: m,
-                placements: placed.into_iter().map(|(_, at)| at).collect(),
+                placements: nodes.into_iter().map(|(_, at)| at).collect(),
             }),
         }
     }
@@ -116,11 +121,12 @@ pub fn instanced_model(
 /// body it does reproduce, and the families of the rest's stored pieces
 /// (triangles joined by shared vertices) by their own motions, vertex for
 /// vertex.
-fn reproduced_families(mesh: &TriMesh, family: &Family) -> Vec<Family> {
+fn reproduced_families(placed: &Placed, family: &Family) -> Vec<Family> {
+    let mesh = placed.mesh;
     let lead = &family.copies[0];
     let landings: Vec<Vec<Option<u32>>> = family.copies[1..]
         .iter()
-        .map(|copy| landing(mesh, &lead.triangles, copy))
+        .map(|copy| placed.landing(&lead.triangles, copy))
         .collect();
     let (mut good, mut bad) = (Vec::new(), Vec::new());
     for piece in stored_pieces_of(mesh, &lead.triangles) {
@@ -255,49 +261,107 @@ pub struct Instanced {
     pub residual: f64,
 }
 
-/// Whether `lead`'s triangles moved by `copy`'s pose are `copy`'s, corner
-/// for corner in the order a renderer reads them (turned where the pose
-/// mirrors), within twice the copy's residual and the rounding of f32
-/// coordinates where it stands.
-fn reproduces(mesh: &TriMesh, lead: &[u32], copy: &RepeatCopy) -> bool {
-    lead.len() == copy.triangles.len() && landing(mesh, lead, copy).iter().all(Option::is_some)
+/// The placed mesh with each triangle's source in the model.
+struct Placed<'a> {
+    model: &'a Model,
+    mesh: &'a TriMesh,
+    sources: &'a [TriangleSource],
 }
 
-/// For each triangle of `lead` moved by `copy`'s pose, the triangle of
-/// `copy` it lands on corner for corner (see [`reproduces`]), if any.
-fn landing(mesh: &TriMesh, lead: &[u32], copy: &RepeatCopy) -> Vec<Option<u32>> {
-    let extent = copy
-        .triangles
-        .iter()
-        .flat_map(|&t| mesh.corners(t as usize))
-        .map(|p| p.abs().max_element())
-        .fold(0.0, f64::max);
-    let tolerance = (2.0 * copy.residual + 8.0 * f64::from(f32::EPSILON) * extent).max(1e-300);
-    let turned = determinant(&copy.pose) < 0.0;
-    let key = |p: Vec3| [p.x, p.y, p.z].map(|x| (x / tolerance).floor() as i64);
-    let centroid = |c: [Vec3; 3]| (c[0] + c[1] + c[2]) / 3.0;
-    let mut at: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for &t in &copy.triangles {
-        at.entry(key(centroid(mesh.corners(t as usize))))
-            .or_default()
-            .push(t);
+impl Placed<'_> {
+    /// Whether `lead`'s triangles moved by `copy`'s pose are `copy`'s (see
+    /// [`Placed::landing`]).
+    fn reproduces(&self, lead: &[u32], copy: &RepeatCopy) -> bool {
+        lead.len() == copy.triangles.len() && self.landing(lead, copy).iter().all(Option::is_some)
     }
-    lead.iter()
-        .map(|&t| {
-            let [a, b, c] = mesh.corners(t as usize).map(|p| moved(&copy.pose, p));
-            let corners = if turned { [a, c, b] } else { [a, b, c] };
-            let k = key(centroid(corners));
-            (0..27).find_map(|d| {
-                let near = [k[0] + d % 3 - 1, k[1] + d / 3 % 3 - 1, k[2] + d / 9 - 1];
-                at.get(&near)?.iter().copied().find(|&u| {
-                    let other = mesh.corners(u as usize);
-                    (0..3).any(|turn| {
-                        (0..3).all(|i| corners[i].distance(other[(i + turn) % 3]) <= tolerance)
+
+    /// For each triangle of `lead` moved by `copy`'s pose, the triangle of
+    /// `copy` it lands on: corner for corner in the order a renderer reads
+    /// them (turned where the pose mirrors), within twice the copy's
+    /// residual and the rounding of f32 coordinates where it stands, with
+    /// the same material and the same texture coordinates, colours and
+    /// other attributes that do not turn with the part.
+    fn landing(&self, lead: &[u32], copy: &RepeatCopy) -> Vec<Option<u32>> {
+        let mesh = self.mesh;
+        let extent = copy
+            .triangles
+            .iter()
+            .flat_map(|&t| mesh.corners(t as usize))
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        let tolerance = (2.0 * copy.residual + 8.0 * f64::from(f32::EPSILON) * extent).max(1e-300);
+        let turned = determinant(&copy.pose) < 0.0;
+        let key = |p: Vec3| [p.x, p.y, p.z].map(|x| (x / tolerance).floor() as i64);
+        let centroid = |c: [Vec3; 3]| (c[0] + c[1] + c[2]) / 3.0;
+        let mut at: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for &t in &copy.triangles {
+            at.entry(key(centroid(mesh.corners(t as usize))))
+                .or_default()
+                .push(t);
+        }
+        lead.iter()
+            .map(|&t| {
+                let [a, b, c] = mesh.corners(t as usize).map(|p| moved(&copy.pose, p));
+                let (corners, order) = match turned {
+                    true => ([a, c, b], [0, 2, 1]),
+                    false => ([a, b, c], [0, 1, 2]),
+                };
+                let k = key(centroid(corners));
+                (0..27).find_map(|d| {
+                    let near = [k[0] + d % 3 - 1, k[1] + d / 3 % 3 - 1, k[2] + d / 9 - 1];
+                    at.get(&near)?.iter().copied().find(|&u| {
+                        let other = mesh.corners(u as usize);
+                        (0..3).any(|turn| {
+                            (0..3).all(|i| {
+                                let j = (i + turn) % 3;
+                                corners[i].distance(other[j]) <= tolerance
+                                    && self.same_attributes(t, order[i], u, j)
+                            })
+                        })
                     })
                 })
             })
+            .collect()
+    }
+
+    /// The primitive and vertex behind corner `corner` of placed triangle
+    /// `t`.
+    fn corner(&self, t: u32, corner: usize) -> (&Primitive, usize) {
+        let s = self.sources[t as usize];
+        let node = &self.model.nodes[s.node as usize];
+        let primitive = &self.model.meshes[node.mesh].primitives[s.primitive as usize];
+        // A mirroring placement's triangles were turned when placed.
+        let turned = determinant(&node.placements[s.placement as usize]) < 0.0;
+        let source = if turned { [0, 2, 1][corner] } else { corner };
+        (
+            primitive,
+            primitive.triangles[s.triangle as usize][source] as usize,
+        )
+    }
+
+    /// Whether two placed corners have one material and the same values of
+    /// every attribute that does not turn with the part.
+    fn same_attributes(&self, t: u32, i: usize, u: u32, j: usize) -> bool {
+        let ((p, v), (q, w)) = (self.corner(t, i), self.corner(u, j));
+        if p.material != q.material || p.attributes.len() != q.attributes.len() {
+            return false;
+        }
+        p.attributes.iter().all(|a| {
+            if matches!(a.semantic.as_str(), "POSITION" | "NORMAL" | "TANGENT") {
+                return true;
+            }
+            q.attributes
+                .iter()
+                .find(|b| b.semantic == a.semantic && b.width == a.width)
+                .is_some_and(|b| {
+                    let x = &a.values[v * a.width..][..a.width];
+                    let y = &b.values[w * b.width..][..b.width];
+                    x.iter()
+                        .zip(y)
+                        .all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1.0))
+                })
         })
-        .collect()
+    }
 }
 
 /// The representative's triangles, grouped by source primitive, in the
