@@ -63,6 +63,9 @@ cargo run --release --example hostile_files -- target/hostile
 step "JS API in Node (the worker API, hostile inputs, scenes held past the memory), threaded build in Chromium"
 (cd js && node --test test/api.test.js test/worker.test.js test/hostile.test.js test/hostile-calls.test.js test/held-scenes.test.js test/browser.test.js)
 
+step "fast-reject repeats --out: the instanced glTF through the Khronos glTF validator"
+(cd js && node --test test/instanced-glb.test.js)
+
 step "the fast-reject bin on zoo-bunny, select-cow-head and (curvature) twisted-homer, scored by evaluate.py"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT

@@ -291,6 +291,35 @@ impl Placed<'_> {
             .fold(0.0, f64::max);
         let tolerance = (2.0 * copy.residual + 8.0 * f64::from(f32::EPSILON) * extent).max(1e-300);
         let turned = determinant(&copy.pose) < 0.0;
+        // `t` moved, its corners in the order a renderer reads them, and
+        // which of its own corners each is.
+        let moved_corners = |t: u32| {
+            let [a, b, c] = mesh.corners(t as usize).map(|p| moved(&copy.pose, p));
+            match turned {
+                true => ([a, c, b], [0, 2, 1]),
+                false => ([a, b, c], [0, 1, 2]),
+            }
+        };
+        let lands = |t: u32, u: u32, corners: &[Vec3; 3], order: &[usize; 3]| {
+            let other = mesh.corners(u as usize);
+            (0..3).any(|turn| {
+                (0..3).all(|i| {
+                    let j = (i + turn) % 3;
+                    corners[i].distance(other[j]) <= tolerance
+                        && self.same_attributes(t, order[i], u, j)
+                })
+            })
+        };
+        // A copy stored as its representative was lists its triangles in
+        // the same order: most land on their namesakes.
+        if lead.len() == copy.triangles.len()
+            && lead.iter().zip(&copy.triangles).all(|(&t, &u)| {
+                let (corners, order) = moved_corners(t);
+                lands(t, u, &corners, &order)
+            })
+        {
+            return copy.triangles.iter().map(|&u| Some(u)).collect();
+        }
         let key = |p: Vec3| [p.x, p.y, p.z].map(|x| (x / tolerance).floor() as i64);
         let centroid = |c: [Vec3; 3]| (c[0] + c[1] + c[2]) / 3.0;
         let mut at: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
@@ -301,24 +330,14 @@ impl Placed<'_> {
         }
         lead.iter()
             .map(|&t| {
-                let [a, b, c] = mesh.corners(t as usize).map(|p| moved(&copy.pose, p));
-                let (corners, order) = match turned {
-                    true => ([a, c, b], [0, 2, 1]),
-                    false => ([a, b, c], [0, 1, 2]),
-                };
+                let (corners, order) = moved_corners(t);
                 let k = key(centroid(corners));
                 (0..27).find_map(|d| {
                     let near = [k[0] + d % 3 - 1, k[1] + d / 3 % 3 - 1, k[2] + d / 9 - 1];
-                    at.get(&near)?.iter().copied().find(|&u| {
-                        let other = mesh.corners(u as usize);
-                        (0..3).any(|turn| {
-                            (0..3).all(|i| {
-                                let j = (i + turn) % 3;
-                                corners[i].distance(other[j]) <= tolerance
-                                    && self.same_attributes(t, order[i], u, j)
-                            })
-                        })
-                    })
+                    at.get(&near)?
+                        .iter()
+                        .copied()
+                        .find(|&u| lands(t, u, &corners, &order))
                 })
             })
             .collect()
