@@ -36,6 +36,7 @@ fn distance(a: Point, b: Point) -> f64 {
 }
 
 /// A truth unit: a family, or a rigid group of them.
+#[derive(Clone)]
 struct Unit {
     id: String,
     members: Vec<String>,
@@ -302,6 +303,9 @@ fn generated_turned_mirrored_and_twin_parts_are_each_their_own_family() {
         None => scene = Some(mesh),
     };
     let mut units = Vec::new();
+    // Mirror images left inside out: a mirroring node draws its mesh
+    // turned right, so no node draws them as they are.
+    let mut inside_out: Vec<(usize, Matrix)> = Vec::new();
     let parts: [(&str, &TriMesh, f64, usize); 4] = [
         ("cow", &cow, 0.05, 6),
         ("fandisk", &fandisk, 1.0, 4),
@@ -317,6 +321,9 @@ fn generated_turned_mirrored_and_twin_parts_are_each_their_own_family() {
             let m = pose(turn(7 * f + k), mirrored, at);
             add(placed(mesh, &m, mirrored && k % 2 == 1));
             copies.push(m);
+            if mirrored && k % 2 == 0 {
+                inside_out.push((units.len(), m));
+            }
         }
         let vertices: Vec<Vec3> = (0..mesh.positions().len() as u32)
             .map(|v| mesh.vertex(v))
@@ -372,6 +379,22 @@ fn generated_turned_mirrored_and_twin_parts_are_each_their_own_family() {
         .count();
     // Every third copy of each: 2 of the 6 cows, one of each of the rest.
     assert_eq!(mirrored, 2 + 1 + 1 + 1);
+
+    // Written instanced and read back: every triangle where it was, facing
+    // the same way (mirror images by mirroring nodes), the same families
+    // but for the copies left inside out, which stay as they were.
+    let model = Model::of_mesh(&scene);
+    let (mesh, sources) = model.placed().unwrap();
+    let (written, read, tolerance) = written_and_read_back(&model, &mesh, &sources, &families);
+    let out = load(&written, None).unwrap();
+    assert_eq!(unmatched_triangles(&scene, &out, tolerance), 0);
+    assert_eq!(unmatched_triangles(&out, &scene, tolerance), 0);
+    let mut drawn = units.clone();
+    for (u, m) in &inside_out {
+        drawn[*u].copies.retain(|c| c != m);
+    }
+    assert_eq!(inside_out.len(), 4);
+    assert_eq!(score_units(&drawn, &read), (vec![], 0));
 }
 
 /// Triangles of `a` that no triangle of `b` matches: the same corners, in

@@ -117,13 +117,33 @@ pub fn instanced_model(
 }
 
 /// A family whose body pose does not reproduce every copy (a symmetric
-/// piece stored turned, its diagonals the other way), as the part of the
-/// body it does reproduce, and the families of the rest's stored pieces
-/// (triangles joined by shared vertices) by their own motions, vertex for
-/// vertex.
+/// piece stored turned, its diagonals the other way; a mirror image left
+/// inside out), as the copies it reproduces whole, and the families of the
+/// rest's stored pieces (triangles joined by shared vertices) by their own
+/// motions, vertex for vertex; where it reproduces none whole, as the part
+/// of the body it does reproduce in every copy, and the families of the
+/// rest's pieces.
 fn reproduced_families(placed: &Placed, family: &Family) -> Vec<Family> {
     let mesh = placed.mesh;
     let lead = &family.copies[0];
+    // Where the body pose reproduces some copies whole, they stay one
+    // family; the others' pieces find their own (a mirror image left
+    // inside out is drawn by none).
+    let (whole, rest): (Vec<&RepeatCopy>, Vec<&RepeatCopy>) = family.copies[1..]
+        .iter()
+        .partition(|copy| placed.reproduces(&lead.triangles, copy));
+    if !whole.is_empty() {
+        let pieces: Vec<Vec<u32>> = rest
+            .iter()
+            .flat_map(|copy| stored_pieces_of(mesh, &copy.triangles))
+            .collect();
+        let mut out = vec![Family {
+            copies: std::iter::once(lead).chain(whole).cloned().collect(),
+            ..family.clone()
+        }];
+        out.extend(piece_families(mesh, &pieces, family.radius));
+        return out;
+    }
     let landings: Vec<Vec<Option<u32>>> = family.copies[1..]
         .iter()
         .map(|copy| placed.landing(&lead.triangles, copy))
