@@ -27,7 +27,7 @@ source scripts/wasm-env.sh
 seconds=${1:-30}
 shift || true
 [[ $seconds =~ ^[0-9]+$ ]] || { echo "usage: $0 [SECONDS_PER_TARGET] [TARGET...]" >&2; exit 2; }
-all_targets=(load_obj load_ply load_ply_limited load_stl load_any load_gltf gltf_resolver search_small message_text)
+all_targets=(load_obj load_ply load_ply_limited load_stl load_any load_gltf instance_gltf gltf_resolver search_small message_text)
 targets=("$@")
 ((${#targets[@]})) || targets=("${all_targets[@]}")
 # Also caps the size of single allocations (libFuzzer's -malloc_limit_mb

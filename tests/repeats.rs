@@ -727,3 +727,24 @@ fn copies_drawn_in_other_materials_are_other_parts_and_keep_their_attributes() {
     assert_eq!(unmatched_triangles(&mesh, &out, 1e-5), 0);
     assert_eq!(unmatched_triangles(&out, &mesh, 1e-5), 0);
 }
+
+#[test]
+fn a_copy_rounding_would_flatten_is_kept_as_it_was() {
+    // Coordinates near 1e36 with triangles a few units across (found by
+    // the fuzzer): the copy turned by a quarter turn matches within the
+    // residual, but its triangles drawn through the node's f32 matrix
+    // would lose their area, and a reader would drop them.
+    let bytes =
+        include_bytes!("../fuzz/regressions/instance_gltf/huge-coordinates-flatten-a-turned-copy");
+    let model = load_model(bytes, None, &NoResources).unwrap();
+    let (mesh, sources) = model.placed().unwrap();
+    let families = find_repeats(&mesh, Threads::Serial);
+    assert!(
+        !families.is_empty(),
+        "the two placements are found as copies"
+    );
+    let instanced = instanced_model(&model, &mesh, &sources, &families, Placement::Nodes);
+    let back = load(&write_glb(&instanced.model).unwrap(), None).unwrap();
+    assert_eq!(back.triangles().len(), mesh.triangles().len());
+    assert_eq!(instanced.kept_copies, 2);
+}

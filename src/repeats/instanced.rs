@@ -17,8 +17,9 @@ use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::io::model::{
     Attribute, IDENTITY, Matrix, Model, ModelMesh, ModelNode, Primitive, TriangleSource,
-    determinant, multiply,
+    determinant, multiply, transform_point,
 };
+use crate::mesh::is_degenerate;
 
 /// How copies are placed in the written model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,22 +72,25 @@ pub fn instanced_model(
             .iter()
             .filter(|copy| placed.reproduces(&family.copies[0].triangles, copy))
             .collect();
+        let shape = family_mesh(model, sources, family, f);
+        // Where coordinates dwarf a copy's triangles, rounding a triangle
+        // through the frame and the node's f32 matrix can flatten it: such
+        // a copy stays as it was too.
+        let (exact, nodes): (Vec<&RepeatCopy>, Vec<(Option<String>, Matrix)>) = exact
+            .into_iter()
+            .map(|copy| {
+                let at = multiply(&copy.pose, &frame);
+                (copy, (copy_name(model, sources, copy, f), at))
+            })
+            .filter(|(_, (_, at))| draws_every_triangle(&shape, at))
+            .unzip();
         kept_copies += family.copies.len() - exact.len();
         if exact.len() < 2 {
             continue;
         }
         residual = exact.iter().map(|c| c.residual).fold(residual, f64::max);
-        out.meshes.push(family_mesh(model, sources, family, f));
+        out.meshes.push(shape);
         let m = out.meshes.len() - 1;
-        let nodes: Vec<(Option<String>, Matrix)> = exact
-            .iter()
-            .map(|copy| {
-                (
-                    copy_name(model, sources, copy, f),
-                    multiply(&copy.pose, &frame),
-                )
-            })
-            .collect();
         for copy in &exact {
             for &t in &copy.triangles {
                 taken[t as usize] = true;
@@ -401,6 +405,23 @@ impl Placed<'_> {
                 })
         })
     }
+}
+
+/// Whether `mesh` placed by `at`, read back as a glTF reader reads it
+/// (the matrix in f32, each point rounded to f32), keeps every triangle's
+/// area.
+fn draws_every_triangle(mesh: &ModelMesh, at: &Matrix) -> bool {
+    let read = at.map(|row| row.map(|v| f64::from(v as f32)));
+    mesh.primitives.iter().all(|primitive| {
+        let Ok(local) = primitive.positions() else {
+            return false;
+        };
+        let world: Vec<[f32; 3]> = local.iter().map(|&p| transform_point(&read, p)).collect();
+        primitive
+            .triangles
+            .iter()
+            .all(|&t| !is_degenerate(&world, t))
+    })
 }
 
 /// The representative's triangles, grouped by source primitive, in the
