@@ -227,12 +227,18 @@ export interface RepeatFamily {
 export interface RepeatsReport {
   /** The families, the one covering the most triangles first. */
   families: RepeatFamily[];
-  timingsMs: { load: number; repeats: number };
+  /** With `instanced`: the scene as an instanced binary glTF (each family stored once, every copy placed; the rest as it was). */
+  glb?: Uint8Array;
+  /** With `instanced`: what the file holds; `keptCopies`, copies written as they were because their family's mesh would not draw them the same. */
+  written?: { bytes: number; meshes: number; nodes: number; keptCopies: number };
+  timingsMs: { load: number; repeats: number; write?: number };
 }
 
 export interface RepeatsOptions {
   /** The file's format; recognized from the content when absent. */
   format?: MeshFormat;
+  /** Also write the scene as an instanced GLB (`glb` in the report): a node per copy, or one EXT_mesh_gpu_instancing node per family. */
+  instanced?: 'nodes' | 'gpu-instancing';
 }
 
 /** Finds the parts a mesh file holds twice or more, without a template; throws an Error with a readable message on bad input. */

@@ -298,7 +298,9 @@ function searching(sceneHandle, templateHandle, search) {
  * without voxelizing: `{ families, timingsMs }`, each family with its
  * representative's `center` and `radius`, `triangles` and `pieces` per
  * copy, and `copies`, each `{ pose, residual, mirrored }` (pose: the
- * row-major 4x4 from the first copy to this one). Options: `format` only.
+ * row-major 4x4 from the first copy to this one). Options: `format`, and
+ * `instanced` ('nodes' or 'gpu-instancing') to get the scene as an
+ * instanced GLB too (`glb`, with `written`), as `repeats --out` writes it.
  */
 export function findRepeats(bytes, options) {
   const data = asBytes(bytes, 'scene');

@@ -207,7 +207,8 @@ test('findRepeats lists the parts a scene repeats, as the CLI does, and refuses 
   assert.equal(saw.families[0].copies.length, 24);
   for (const [call, message] of [
     [() => findRepeats(new Uint8Array([1, 2, 3, 4, 5])), /unrecognized mesh data/],
-    [() => findRepeats(truck, { resolution: 64 }), /unknown repeats option 'resolution'; the only option is format/],
+    [() => findRepeats(truck, { resolution: 64 }), /unknown repeats option 'resolution'; the options are format and instanced/],
+    [() => findRepeats(truck, { instanced: 'yes' }), /invalid option instanced: '"yes"' is not 'nodes' or 'gpu-instancing'/],
     [() => findRepeats(truck, { format: 'dwg' }), /format/],
     [() => findRepeats('scene.glb'), /Uint8Array/],
   ]) {
@@ -215,4 +216,30 @@ test('findRepeats lists the parts a scene repeats, as the CLI does, and refuses 
   }
   // The module still works.
   assert.equal(findRepeats(truck).families.length, 1);
+});
+
+test('findRepeats writes the instanced glTF the CLI writes, byte for byte, and the validator accepts it', async () => {
+  await init();
+  const { execFileSync } = await import('node:child_process');
+  const { mkdtempSync, readFileSync } = await import('node:fs');
+  const { tmpdir } = await import('node:os');
+  const validator = (await import('gltf-validator')).default;
+  const bin = new URL('../../target/release/fast-reject', import.meta.url).pathname;
+  const path = new URL('real-saw-roller/scene.glb', shared).pathname;
+  const dir = mkdtempSync(`${tmpdir()}/instanced-`);
+  for (const instanced of ['nodes', 'gpu-instancing']) {
+    const report = findRepeats(await readFile(path), { instanced });
+    assert.ok(report.glb instanceof Uint8Array);
+    assert.equal(new TextDecoder().decode(report.glb.subarray(0, 4)), 'glTF');
+    assert.equal(report.written.bytes, report.glb.length);
+    assert.equal(report.written.keptCopies, 0);
+    assert.ok(report.timingsMs.write >= 0);
+    const out = `${dir}/${instanced}.glb`;
+    execFileSync(bin, ['repeats', path, '--out', out, ...(instanced === 'nodes' ? [] : ['--gpu-instancing'])]);
+    assert.deepEqual(report.glb, new Uint8Array(readFileSync(out)), instanced);
+    const { issues } = await validator.validateBytes(report.glb, { maxIssues: 0 });
+    assert.deepEqual([issues.numErrors, issues.numWarnings], [0, 0], instanced);
+  }
+  // Without the option, no file.
+  assert.equal(findRepeats(await readFile(path)).glb, undefined);
 });

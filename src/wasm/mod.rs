@@ -26,8 +26,8 @@ use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
 use crate::exec::Threads;
 use crate::mesh::TriMesh;
-use crate::mesh::io::{NoResources, load_within};
-use crate::repeats::find_repeats;
+use crate::mesh::io::{NoResources, load_model_within, load_within, write_glb};
+use crate::repeats::{find_repeats, instanced_model, split_by_material};
 use crate::scene::{Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
@@ -199,23 +199,65 @@ fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), Js
 /// `{families, timingsMs: {load, repeats}}`, each family as `fast-reject
 /// repeats --json` writes it (its representative's centre and radius, its
 /// triangles and pieces, each copy's `pose`, `residual` and `mirrored`).
-/// `options`: `format` only, recognized from the content when absent.
+/// `options`: `format` (recognized from the content when absent) and
+/// `instanced` (`'nodes'` or `'gpu-instancing'`): the scene written as an
+/// instanced GLB too, as `glb` (a `Uint8Array`) with `written: {bytes,
+/// meshes, nodes, keptCopies}`, as `repeats --out` writes it.
 #[wasm_bindgen(js_name = findRepeats)]
 pub fn find_repeats_in(bytes: &[u8], options: JsValue) -> Result<JsValue, JsError> {
-    let format = options::format_only("repeats", &options)?;
-    let (mesh, load_ms) = parse_mesh(bytes, format)?;
+    let settings = options::RepeatsSettings::from_js(&options)?;
+    ensure_started();
+    let start = now_ms();
+    // A model keeps every attribute besides the positions, and its placed
+    // mesh is built beside it: a share of what one mesh may take.
+    let model = load_model_within(bytes, settings.format, &NoResources, max_mesh_bytes() / 3)
+        .map_err(js_error)?;
+    let (mesh, sources) = model.placed().map_err(js_error)?;
+    let load_ms = now_ms() - start;
     let start = now_ms();
     let families = find_repeats(&mesh, Threads::Parallel);
+    let families = split_by_material(&model, &mesh, &sources, families);
     let repeats_ms = now_ms() - start;
     let text = serde_json::to_string(&families)
         .map_err(|e| JsError::new(&format!("cannot encode the families: {e}")))?;
-    let families = js_sys::JSON::parse(&text)
+    let parsed = js_sys::JSON::parse(&text)
         .map_err(|e| JsError::new(&format!("cannot decode the families: {}", describe_js(&e))))?;
     let timings = Object::new();
     set(&timings, "load", &JsValue::from(load_ms));
     set(&timings, "repeats", &JsValue::from(repeats_ms));
     let object = Object::new();
-    set(&object, "families", &families);
+    set(&object, "families", &parsed);
+    if let Some(placement) = settings.instanced {
+        let start = now_ms();
+        let instanced = instanced_model(&model, &mesh, &sources, &families, placement);
+        let glb = write_glb(&instanced.model).map_err(js_error)?;
+        let nodes: usize = instanced
+            .model
+            .nodes
+            .iter()
+            .map(|n| n.placements.len())
+            .sum();
+        let written = Object::new();
+        set(&written, "bytes", &JsValue::from(glb.len() as f64));
+        set(
+            &written,
+            "meshes",
+            &JsValue::from(instanced.model.meshes.len() as f64),
+        );
+        set(&written, "nodes", &JsValue::from(nodes as f64));
+        set(
+            &written,
+            "keptCopies",
+            &JsValue::from(instanced.kept_copies as f64),
+        );
+        set(&object, "written", &written.into());
+        set(
+            &object,
+            "glb",
+            &js_sys::Uint8Array::from(glb.as_slice()).into(),
+        );
+        set(&timings, "write", &JsValue::from(now_ms() - start));
+    }
     set(&object, "timingsMs", &timings.into());
     Ok(object.into())
 }

@@ -16,6 +16,7 @@ use wasm_bindgen::prelude::*;
 
 use crate::error::{FileText, Format};
 use crate::options::MatchOptions;
+use crate::repeats::Placement;
 use crate::scene::SceneOptions;
 
 #[wasm_bindgen]
@@ -79,8 +80,45 @@ impl SceneSettings {
     }
 }
 
-/// `Template.fromBytes` and `findRepeats` options (`what`: "template",
-/// "repeats"): the format only.
+/// `findRepeats` options: the format, and whether to write the scene as
+/// an instanced glTF, placing copies by nodes or by GPU instancing.
+pub struct RepeatsSettings {
+    pub format: Option<Format>,
+    pub instanced: Option<Placement>,
+}
+
+impl RepeatsSettings {
+    /// Reads a plain object (`undefined` or `null` mean the defaults).
+    pub fn from_js(value: &JsValue) -> Result<RepeatsSettings, JsError> {
+        let mut map = plain_object("repeats", value)?;
+        if let Some(key) = map
+            .keys()
+            .find(|k| !["format", "instanced"].contains(&k.as_str()))
+        {
+            return Err(JsError::new(&format!(
+                "unknown repeats option '{}'; the options are format and instanced",
+                FileText::new(key)
+            )));
+        }
+        let instanced = match map.remove("instanced") {
+            None | Some(Value::Null) => None,
+            Some(Value::String(s)) if s == "nodes" => Some(Placement::Nodes),
+            Some(Value::String(s)) if s == "gpu-instancing" => Some(Placement::GpuInstancing),
+            Some(other) => {
+                return Err(JsError::new(&format!(
+                    "invalid option instanced: '{}' is not 'nodes' or 'gpu-instancing'",
+                    FileText::new(&other.to_string())
+                )));
+            }
+        };
+        Ok(RepeatsSettings {
+            format: format_option(map.remove("format"))?,
+            instanced,
+        })
+    }
+}
+
+/// `Template.fromBytes` options (`what`: "template"): the format only.
 pub fn format_only(what: &str, value: &JsValue) -> Result<Option<Format>, JsError> {
     let mut map = plain_object(what, value)?;
     if let Some(key) = map.keys().find(|k| k.as_str() != "format") {

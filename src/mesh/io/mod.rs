@@ -115,10 +115,24 @@ pub fn load_model(
     format: Option<Format>,
     resources: &dyn ResourceResolver,
 ) -> Result<Model> {
+    load_model_within(bytes, format, resources, u64::MAX)
+}
+
+/// Like [`load_model`], refusing a model whose placed mesh would need more
+/// than `max_mesh_bytes` (see [`load_within`]).
+pub fn load_model_within(
+    bytes: &[u8],
+    format: Option<Format>,
+    resources: &dyn ResourceResolver,
+    max_mesh_bytes: u64,
+) -> Result<Model> {
     match format.or_else(|| sniff(bytes)) {
-        Some(Format::Gltf) => gltf::read_model(bytes, resources, SizeLimit::new(u64::MAX)),
-        _ => Ok(Model::of_mesh(&load_with_resources(
-            bytes, format, resources,
+        Some(Format::Gltf) => gltf::read_model(bytes, resources, SizeLimit::new(max_mesh_bytes)),
+        _ => Ok(Model::of_mesh(&load_within(
+            bytes,
+            format,
+            resources,
+            max_mesh_bytes,
         )?)),
     }
 }
