@@ -28,6 +28,8 @@ const state = {
   status: 'starting',
   /** The last message shown to the user (tests wait on it). */
   lastMessage: null,
+  /** The scene's repeated parts, as `findRepeats` gave them with the instanced file, or null. */
+  repeats: null,
 };
 
 const view = new View($('viewport'), {
@@ -150,6 +152,7 @@ async function openScene(files) {
   $('scene-name').textContent = `${model.name}`;
   dismissMessage();
   clearResults();
+  clearRepeats();
   setSelectionRadius(sliderRadius());
   $('progress-text').textContent = '\u00a0';
   setStatus('ready');
@@ -596,6 +599,88 @@ for (const id of ['resolution', 'volume-threshold', 'harmonics-threshold', 'curv
 
 // ---- results -------------------------------------------------------------
 
+// ---- repeated parts -----------------------------------------------------
+
+/** Finds the scene's repeated parts in the worker, with the instanced file. */
+async function findRepeatedParts() {
+  const scene = state.scene;
+  if (!scene) return;
+  const generation = state.generation;
+  $('repeats-button').disabled = true;
+  $('repeats-summary').textContent = `Finding the parts ${scene.name} repeats…`;
+  try {
+    const started = performance.now();
+    const report = await matcher.findRepeats(scene.bytes, { format: scene.format, instanced: 'nodes' });
+    if (generation !== state.generation) return;
+    state.repeats = report;
+    showRepeats(report, scene, performance.now() - started);
+  } catch (error) {
+    if (generation !== state.generation || error instanceof CancelledError) return;
+    $('repeats-summary').textContent = '';
+    showMessage(`Could not find the repeated parts: ${sentence(error.message)}`);
+  } finally {
+    $('repeats-button').disabled = false;
+  }
+}
+
+function showRepeats(report, scene, wallMs) {
+  const families = report.families;
+  const copies = families.reduce((sum, f) => sum + f.copies.length, 0);
+  $('repeat-count').textContent = String(families.length);
+  const size = (bytes) => `${(bytes / 1e6).toFixed(bytes < 1e6 ? 2 : 1)} MB`;
+  $('repeats-summary').textContent = families.length === 0
+    ? `No part repeats (${(wallMs / 1000).toFixed(2)} s).`
+    : `${families.length} part${families.length === 1 ? '' : 's'} repeat${families.length === 1 ? 's' : ''}, ${copies} copies in all `
+      + `(${(wallMs / 1000).toFixed(2)} s). The instanced file: ${size(report.written.bytes)}, from ${size(scene.bytes.length)}. `
+      + 'Click a part to light up every copy.';
+  $('save-instanced-button').disabled = families.length === 0;
+  const list = $('family-list');
+  list.replaceChildren();
+  families.forEach((family, index) => {
+    const item = document.createElement('li');
+    const button = document.createElement('button');
+    button.type = 'button';
+    const mirrored = family.copies.filter((c) => c.mirrored).length;
+    button.textContent = `${family.copies.length} copies × ${family.triangles} triangles`
+      + (mirrored ? ` (${mirrored} mirrored)` : '') + ` · radius ${formatLength(family.radius)}`;
+    button.addEventListener('click', () => showFamily(index));
+    item.append(button);
+    list.append(item);
+  });
+}
+
+/** Lights up every copy of family `index`: its centre moved by each pose, in a ball of its radius. */
+function showFamily(index) {
+  const family = state.repeats?.families[index];
+  if (!family) return;
+  const [x, y, z] = family.center;
+  const points = new Float64Array(family.copies.flatMap(({ pose: m }) => [0, 1, 2].map((r) => m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3])));
+  view.setGhosts([]);
+  view.setMatchPoses([]);
+  view.setMatches(points, family.radius);
+  [...$('family-list').querySelectorAll('button')].forEach((b, i) => b.classList.toggle('focused', i === index));
+}
+
+function saveInstanced() {
+  const glb = state.repeats?.glb;
+  if (!glb) return;
+  const link = document.createElement('a');
+  link.href = URL.createObjectURL(new Blob([glb], { type: 'model/gltf-binary' }));
+  link.download = `${(state.scene?.name ?? 'scene').replace(/\.[^.]+$/, '')}-instanced.glb`;
+  link.click();
+  setTimeout(() => URL.revokeObjectURL(link.href), 1000);
+}
+$('repeats-button').addEventListener('click', () => findRepeatedParts());
+$('save-instanced-button').addEventListener('click', saveInstanced);
+
+function clearRepeats() {
+  state.repeats = null;
+  $('repeat-count').textContent = '';
+  $('repeats-summary').textContent = '';
+  $('family-list').replaceChildren();
+  $('save-instanced-button').disabled = true;
+}
+
 function clearResults() {
   $('results-stale').hidden = true;
   $('results-legend').hidden = true;
@@ -814,6 +899,10 @@ globalThis.viewer = {
   },
   get report() {
     return state.report;
+  },
+  /** The scene's repeated parts, once found: `findRepeats`'s report with the instanced file. */
+  get repeats() {
+    return state.repeats;
   },
   /** The options the last search was started with. */
   get options() {

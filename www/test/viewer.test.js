@@ -725,3 +725,42 @@ test('viewer: matches inside an assembly — isolate shows every one, a click th
     await viewer.close();
   }
 });
+
+test('viewer: repeated parts — found without a template, a part lights up every copy, the instanced file is saved', async () => {
+  const viewer = await openViewer({ isolation: true });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    await page.setInputFiles('#scene-input', resolve(shared, 'scenes/real-saw-roller/scene.glb'));
+    await waitForStatus(page, 'ready');
+    await page.click('#repeats-button');
+    await page.waitForFunction(() => !!globalThis.viewer.repeats || !!globalThis.viewer.lastMessage, null, { timeout: 120_000, polling: 100 });
+    assert.equal(await page.evaluate(() => globalThis.viewer.lastMessage), null);
+    const found = await page.evaluate(() => ({
+      copies: globalThis.viewer.repeats.families.map((f) => f.copies.length),
+      bytes: globalThis.viewer.repeats.written.bytes,
+    }));
+    // The saw's 24 rollers are among its repeated parts, one list entry each.
+    assert.ok(found.copies.includes(24), String(found.copies));
+    assert.equal(await page.locator('#family-list button').count(), found.copies.length);
+    assert.match(await page.locator('#repeats-summary').textContent(), /parts repeat, \d+ copies in all .* The instanced file: .* MB, from 4\.3 MB/);
+    const rollers = found.copies.indexOf(24);
+    await page.locator('#family-list button').nth(rollers).click();
+    assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), 24);
+    await mkdir(screenshots, { recursive: true });
+    await page.screenshot({ path: resolve(screenshots, 'viewer-repeats-rollers.png') });
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#save-instanced-button')]);
+    assert.equal(download.suggestedFilename(), 'scene-instanced.glb');
+    const saved = await readFile(await download.path());
+    assert.equal(saved.subarray(0, 4).toString(), 'glTF');
+    assert.equal(saved.length, found.bytes);
+    // Another scene forgets the parts of this one.
+    await page.setInputFiles('#scene-input', resolve(shared, 'scenes/real-truck-wheels/scene.glb'));
+    await waitForStatus(page, 'ready');
+    assert.equal(await page.evaluate(() => globalThis.viewer.repeats), null);
+    assert.equal(await page.locator('#family-list button').count(), 0);
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
