@@ -1,6 +1,6 @@
 // Loads the package the way a viewer's worker would, runs one search and
 // reports instances, timings, threads and memory.
-import { Scene, Template, init, memoryBytes } from '/pkg/index.js';
+import { Scene, Template, findRepeats, init, memoryBytes } from '/pkg/index.js';
 
 /**
  * The test probe `threadsUsed` is not in the package's API: it is read from
@@ -21,6 +21,23 @@ async function bytes(url) {
 onmessage = async ({ data: job }) => {
   try {
     const info = await init({ build: job.build, threads: job.threads });
+    if (job.repeats) {
+      // The repeated parts, and the instanced file (`job.repeats`: 'nodes'
+      // or 'gpu-instancing'), of the scene alone.
+      const sceneBytes = await bytes(`/scenes/${job.scene}/scene.glb`);
+      const start = performance.now();
+      const report = findRepeats(sceneBytes, { instanced: job.repeats });
+      postMessage({
+        info,
+        wallMs: performance.now() - start,
+        memoryBytes: memoryBytes(),
+        families: report.families.length,
+        copies: report.families.reduce((sum, f) => sum + f.copies.length, 0),
+        written: report.written,
+        timings: report.timingsMs,
+      });
+      return;
+    }
     const [sceneBytes, templateBytes] = await Promise.all([
       bytes(`/scenes/${job.scene}/scene.glb`),
       bytes(`/scenes/${job.scene}/template.glb`),
