@@ -59,8 +59,8 @@ pub struct Survivor {
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Progress {
     /// What is being worked through: [`Progress::PARTS`],
-    /// [`Progress::WINDOWS`], [`Progress::CANDIDATES`] or
-    /// [`Progress::SURFACE`].
+    /// [`Progress::WINDOWS`], [`Progress::CANDIDATES`],
+    /// [`Progress::SURFACE`] or [`Progress::REPEATS`].
     pub step: &'static str,
     /// How many of them are done.
     pub done: usize,
@@ -78,6 +78,9 @@ impl Progress {
     /// The steps of welding the mesh and building its adjacency, before
     /// the curvature descriptor's first layer.
     pub const SURFACE: &'static str = "surface steps";
+    /// The steps of finding a scene's repeated parts, and of reading and
+    /// writing it around them.
+    pub const REPEATS: &'static str = "repeat steps";
 
     /// The share done, 0 to 1 (1 when there is nothing to do).
     pub fn share(&self) -> f64 {

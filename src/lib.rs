@@ -110,7 +110,7 @@ pub type Backend = exec::Threads;
 pub use instances::Instance;
 pub use mesh::TriMesh;
 pub use mesh::io::load;
-pub use repeats::{Family, RepeatCopy, find_repeats};
+pub use repeats::{Family, RepeatCopy, find_repeats, find_repeats_observed};
 pub use scene::{Scene, SceneOptions};
 pub use search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
 pub use template::TemplateSource;

@@ -486,6 +486,22 @@ fn repeats_lists_the_demo_mugs_as_one_part_of_three_copies() {
             .all(|(i, p)| places[..i].iter().all(|q| p != q))
     );
 
+    // Silent on a pipe; with --progress, each phase on standard error.
+    assert_eq!(stderr(&out), "");
+    let out_glb = std::env::temp_dir().join(format!("fr-repeats-{}.glb", std::process::id()));
+    let out_path = out_glb.to_str().unwrap();
+    let told = cli(&["repeats", scene, "--progress", "--out", out_path]);
+    let _ = std::fs::remove_file(&out_glb);
+    assert!(told.status.success(), "{}", stderr(&told));
+    let log = stderr(&told);
+    for phase in [
+        "loading the scene",
+        "finding repeated parts",
+        "writing the instanced file",
+    ] {
+        assert!(log.contains(phase), "no '{phase}' in:\n{log}");
+    }
+
     let out = cli(&["repeats", scene]);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 repeated part, 3 copies"));
     let out = cli(&["repeats", "/no/such/scene.glb"]);

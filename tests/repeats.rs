@@ -748,3 +748,47 @@ fn a_copy_rounding_would_flatten_is_kept_as_it_was() {
     assert_eq!(back.triangles().len(), mesh.triangles().len());
     assert_eq!(instanced.kept_copies, 2);
 }
+
+#[test]
+fn finding_repeats_tells_each_step_and_stops_when_asked() {
+    use fast_reject::{Error, LayerStats, Observer, Progress, find_repeats_observed};
+    use std::ops::ControlFlow;
+    struct Steps {
+        told: Vec<(usize, usize)>,
+        stop_at: usize,
+    }
+    impl Observer for Steps {
+        fn on_layer(&mut self, _: &LayerStats) -> ControlFlow<()> {
+            ControlFlow::Continue(())
+        }
+        fn on_progress(&mut self, p: &Progress) -> ControlFlow<()> {
+            assert_eq!(p.step, Progress::REPEATS);
+            self.told.push((p.done, p.total));
+            match p.done >= self.stop_at {
+                true => ControlFlow::Break(()),
+                false => ControlFlow::Continue(()),
+            }
+        }
+    }
+    let bytes = std::fs::read(scene_dir("real-truck-wheels").join("scene.glb")).unwrap();
+    let mesh = load(&bytes, None).unwrap();
+    let mut all = Steps {
+        told: Vec::new(),
+        stop_at: usize::MAX,
+    };
+    let families = find_repeats_observed(&mesh, Threads::Serial, &mut all).unwrap();
+    assert_eq!(families, find_repeats(&mesh, Threads::Serial));
+    let total = all.told.len();
+    assert!(total >= 3);
+    assert_eq!(
+        all.told,
+        (1..=total).map(|d| (d, total)).collect::<Vec<_>>()
+    );
+    let mut stop = Steps {
+        told: Vec::new(),
+        stop_at: 2,
+    };
+    let stopped = find_repeats_observed(&mesh, Threads::Serial, &mut stop);
+    assert!(matches!(stopped, Err(Error::Cancelled)));
+    assert_eq!(stop.told.len(), 2);
+}

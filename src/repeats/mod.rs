@@ -18,6 +18,10 @@ mod overlaps;
 pub use congruent::{CopyOf, MirrorImages, congruent_parts};
 pub use instanced::{Instanced, Placement, instanced_model, split_by_material};
 
+use std::ops::ControlFlow;
+
+use crate::cascade::{Observer, Progress};
+use crate::error::{Error, Result};
 use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{
@@ -88,22 +92,59 @@ impl serde::Serialize for Family {
 /// other family. A mirror image is a copy too, marked as one (an instanced
 /// model places left and right by one mesh and a reflecting node).
 pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
+    match find_repeats_observed(mesh, backend, &mut ()) {
+        Ok(families) => families,
+        Err(_) => unreachable!("no observer to cancel"),
+    }
+}
+
+/// [`find_repeats`], telling `observer` as each of its
+/// [`REPEAT_STEPS`] ends ([`Progress::REPEATS`]); a `Break` from it stops
+/// the work with [`Error::Cancelled`].
+pub fn find_repeats_observed(
+    mesh: &TriMesh,
+    backend: Threads,
+    observer: &mut dyn Observer,
+) -> Result<Vec<Family>> {
+    let mut done = 0;
+    let mut step_done = |observer: &mut dyn Observer| {
+        done += 1;
+        let progress = Progress {
+            step: Progress::REPEATS,
+            done,
+            total: REPEAT_STEPS,
+        };
+        match observer.on_progress(&progress) {
+            ControlFlow::Continue(()) => Ok(()),
+            ControlFlow::Break(()) => Err(Error::Cancelled),
+        }
+    };
     let pieces = pieces_of(mesh, backend);
+    step_done(observer)?;
     let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
     let mut copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
+    step_done(observer)?;
     mirrors::mirror_lone_pieces(mesh, &pieces, &mut copies, backend);
+    step_done(observer)?;
     let families: Vec<Family> = bodies::bodies(mesh, &pieces, &copies)
         .into_iter()
         .map(|group| family_of(mesh, &pieces, group))
         .collect();
+    step_done(observer)?;
     let mut families = mirrors::with_mirror_images(mesh, families, backend);
+    step_done(observer)?;
     for family in &mut families {
         // The representative first, the rest in the order the file has them.
         family.copies[1..].sort_by_key(|c| c.triangles[0]);
     }
     families.sort_by_key(|f| std::cmp::Reverse(f.triangles() * f.copies.len()));
-    families
+    Ok(families)
 }
+
+/// The steps [`find_repeats_observed`] reports: the pieces, their copies,
+/// the lone pieces' mirror images, the bodies, and the families' mirror
+/// images.
+pub const REPEAT_STEPS: usize = 5;
 
 /// The pieces to match: the connected components (welded, so that a body
 /// split along seams is one), except where a component that copies

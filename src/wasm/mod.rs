@@ -21,13 +21,13 @@ use std::sync::{Mutex, Once};
 use js_sys::{Float64Array, Function, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
-use crate::cascade::{LayerStats, Progress};
+use crate::cascade::{LayerStats, Observer, Progress};
 use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
 use crate::exec::Threads;
 use crate::mesh::TriMesh;
 use crate::mesh::io::{NoResources, load_model_within, load_within, write_glb};
-use crate::repeats::{find_repeats, instanced_model, split_by_material};
+use crate::repeats::{REPEAT_STEPS, find_repeats_observed, instanced_model, split_by_material};
 use crate::scene::{Scene, SceneOptions};
 use crate::search::{MatchReport, search};
 use crate::template::TemplateSource;
@@ -203,10 +203,26 @@ fn parse_mesh(bytes: &[u8], format: Option<Format>) -> Result<(TriMesh, f64), Js
 /// `instanced` (`'nodes'` or `'gpu-instancing'`): the scene written as an
 /// instanced GLB too, as `glb` (a `Uint8Array`) with `written: {bytes,
 /// meshes, nodes, keptCopies}`, as `repeats --out` writes it.
+/// `on_progress` is called as each step ends with `{step: "repeat steps",
+/// done, total}`; returning `false` from it or throwing cancels.
 #[wasm_bindgen(js_name = findRepeats)]
-pub fn find_repeats_in(bytes: &[u8], options: JsValue) -> Result<JsValue, JsError> {
+pub fn find_repeats_in(
+    bytes: &[u8],
+    options: JsValue,
+    on_progress: Option<Function>,
+) -> Result<JsValue, JsError> {
     let settings = options::RepeatsSettings::from_js(&options)?;
     ensure_started();
+    let mut progress = RepeatSteps {
+        observer: JsObserver {
+            on_layer: None,
+            on_progress,
+            failure: None,
+        },
+        before: 0,
+        // Reading, finding, the materials, and writing where asked.
+        total: 1 + REPEAT_STEPS + 1 + usize::from(settings.instanced.is_some()),
+    };
     let start = now_ms();
     // A model keeps every attribute besides the positions, and its placed
     // mesh is built beside it: a share of what one mesh may take.
@@ -214,9 +230,13 @@ pub fn find_repeats_in(bytes: &[u8], options: JsValue) -> Result<JsValue, JsErro
         .map_err(js_error)?;
     let (mesh, sources) = model.placed().map_err(js_error)?;
     let load_ms = now_ms() - start;
+    progress.step_done()?;
     let start = now_ms();
-    let families = find_repeats(&mesh, Threads::Parallel);
+    let families = find_repeats_observed(&mesh, Threads::Parallel, &mut progress)
+        .map_err(|e| progress.error(e))?;
+    progress.before += REPEAT_STEPS;
     let families = split_by_material(&model, &mesh, &sources, families);
+    progress.step_done()?;
     let repeats_ms = now_ms() - start;
     let text = serde_json::to_string(&families)
         .map_err(|e| JsError::new(&format!("cannot encode the families: {e}")))?;
@@ -257,9 +277,61 @@ pub fn find_repeats_in(bytes: &[u8], options: JsValue) -> Result<JsValue, JsErro
             &js_sys::Uint8Array::from(glb.as_slice()).into(),
         );
         set(&timings, "write", &JsValue::from(now_ms() - start));
+        progress.step_done()?;
     }
     set(&object, "timingsMs", &timings.into());
     Ok(object.into())
+}
+
+/// `findRepeats`'s progress: its own steps (reading, the materials,
+/// writing) and the core's, counted as one sequence of
+/// [`Progress::REPEATS`].
+struct RepeatSteps {
+    observer: JsObserver,
+    /// Steps done before the current one.
+    before: usize,
+    total: usize,
+}
+
+impl RepeatSteps {
+    /// Tells the page one more step is done.
+    fn step_done(&mut self) -> Result<(), JsError> {
+        self.before += 1;
+        let progress = Progress {
+            step: Progress::REPEATS,
+            done: self.before,
+            total: self.total,
+        };
+        match self.observer.on_progress(&progress) {
+            ControlFlow::Continue(()) => Ok(()),
+            ControlFlow::Break(()) => Err(self.error(Error::Cancelled)),
+        }
+    }
+
+    /// `error` for the page: a cancel says what the callback threw.
+    fn error(&self, error: Error) -> JsError {
+        match (&error, &self.observer.failure) {
+            (Error::Cancelled, Some(why)) => JsError::new(&format!(
+                "{}: the progress callback threw: {why}",
+                Error::Cancelled
+            )),
+            _ => js_error(error),
+        }
+    }
+}
+
+impl Observer for RepeatSteps {
+    fn on_layer(&mut self, _: &LayerStats) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        self.observer.on_progress(&Progress {
+            step: Progress::REPEATS,
+            done: self.before + progress.done,
+            total: self.total,
+        })
+    }
 }
 
 /// A scene split into its parts, ready to be searched any number of times.
@@ -528,7 +600,7 @@ struct JsObserver {
     failure: Option<String>,
 }
 
-impl crate::cascade::Observer for JsObserver {
+impl Observer for JsObserver {
     fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()> {
         tell(&mut self.failure, self.on_layer.as_ref(), || {
             layer_to_js(stats)

@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use fast_reject::exec::Threads;
 use fast_reject::mesh::io::write_glb;
 use fast_reject::repeats::{Placement, instanced_model, split_by_material};
-use fast_reject::{Family, find_repeats};
+use fast_reject::{Family, find_repeats_observed};
+
+use crate::progress::ProgressLine;
 
 #[derive(clap::Args)]
 pub struct RepeatsArgs {
@@ -24,22 +26,31 @@ pub struct RepeatsArgs {
     /// EXT_mesh_gpu_instancing, one node per part.
     #[arg(long, requires = "out")]
     gpu_instancing: bool,
+    /// Progress lines on standard error even when it is not a terminal (a
+    /// terminal shows a line redrawn in place without this).
+    #[arg(long)]
+    progress: bool,
 }
 
 pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
     let start = std::time::Instant::now();
+    let mut progress = ProgressLine::new(args.progress);
+    progress.phase("loading the scene");
     let model = super::load_model_file(&args.scene)?;
     let (mesh, sources) = model
         .placed()
         .map_err(|e| format!("'{}': {e}", super::shown(&args.scene)))?;
     let loaded = start.elapsed().as_secs_f64() * 1e3;
-    let families = find_repeats(&mesh, Threads::Parallel);
+    progress.phase("finding repeated parts");
+    let families = find_repeats_observed(&mesh, Threads::Parallel, &mut progress)
+        .map_err(|e| format!("'{}': {e}", super::shown(&args.scene)))?;
     // Parts with different materials are different parts.
     let families = split_by_material(&model, &mesh, &sources, families);
     let found = start.elapsed().as_secs_f64() * 1e3 - loaded;
     let mut written = None;
     let mut kept_copies = 0;
     if let Some(out) = &args.out {
+        progress.phase("writing the instanced file");
         let placement = match args.gpu_instancing {
             true => Placement::GpuInstancing,
             false => Placement::Nodes,
@@ -55,6 +66,7 @@ pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
         written = Some((bytes.len(), instanced.meshes.len(), nodes));
     }
     let wrote = start.elapsed().as_secs_f64() * 1e3 - loaded - found;
+    progress.finish();
     if args.json {
         let mut value = serde_json::json!({
             "families": families,
