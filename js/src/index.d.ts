@@ -180,9 +180,9 @@ export class CancelledError extends Error {
 /** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel: the search then throws (rejects with) a `CancelledError`. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
-/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices, after the steps of welding the mesh into a surface). */
+/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices, after the steps of welding the mesh into a surface; `findRepeats`: its steps, reading to writing). */
 export interface SearchProgress {
-  step: 'parts' | 'windows' | 'candidates' | 'surface steps';
+  step: 'parts' | 'windows' | 'candidates' | 'surface steps' | 'repeat steps';
   done: number;
   total: number;
 }
@@ -242,7 +242,7 @@ export interface RepeatsOptions {
 }
 
 /** Finds the parts a mesh file holds twice or more, without a template; throws an Error with a readable message on bad input. */
-export function findRepeats(bytes: MeshBytes, options?: RepeatsOptions): RepeatsReport;
+export function findRepeats(bytes: MeshBytes, options?: RepeatsOptions, observe?: { onProgress?: ProgressCallback }): RepeatsReport;
 
 export class Scene extends Handle {
   private constructor();

@@ -301,14 +301,30 @@ function searching(sceneHandle, templateHandle, search) {
  * row-major 4x4 from the first copy to this one). Options: `format`, and
  * `instanced` ('nodes' or 'gpu-instancing') to get the scene as an
  * instanced GLB too (`glb`, with `written`), as `repeats --out` writes it.
+ * `onProgress({ step: 'repeat steps', done, total })` as each step ends
+ * (returning `false` or throwing cancels: a `CancelledError`).
  */
-export function findRepeats(bytes, options) {
+export function findRepeats(bytes, options, observe) {
   const data = asBytes(bytes, 'scene');
   const settings = plainOptions(options, 'repeats');
-  return call((glue) => {
-    checkFits(glue, data, 'scene');
-    return glue.findRepeats(data, settings);
-  });
+  const progress = new Progress(checkObserve(observe, 'findRepeats'));
+  try {
+    return call((glue) => {
+      checkFits(glue, data, 'scene');
+      return glue.findRepeats(data, settings, progress.onProgress);
+    });
+  } catch (error) {
+    throw progress.explain(error);
+  }
+}
+
+/** `findRepeats`'s third argument: `{ onProgress }` or nothing. */
+function checkObserve(observe, what) {
+  if (observe === undefined || observe === null) return {};
+  if (typeof observe !== 'object' || (observe.onProgress !== undefined && typeof observe.onProgress !== 'function')) {
+    throw new TypeError(`fast-reject: ${what}'s third argument must be { onProgress } with a function`);
+  }
+  return { onProgress: observe.onProgress };
 }
 
 /** A voxelized scene, searched any number of times. */

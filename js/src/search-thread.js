@@ -43,7 +43,8 @@ async function handle(message, send) {
     } else if (message.type === 'match') {
       send({ type: 'result', id, report: await search(message, send) });
     } else if (message.type === 'repeats') {
-      send({ type: 'result', id, report: findRepeats(message.bytes, message.options) });
+      const onProgress = (progress) => send({ type: 'progress', id, progress });
+      send({ type: 'result', id, report: findRepeats(message.bytes, message.options, { onProgress }) });
     } else {
       throw new Error(`fast-reject: the search worker got an unknown request '${message.type}'`);
     }

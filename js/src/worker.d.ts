@@ -69,7 +69,7 @@ export class SearchWorker {
   /** Searches the loaded scene; rejects with a `CancelledError` when cancelled, an `Error` on bad input. */
   match(template: TemplateSource, options?: MatchOptions, control?: MatchControl): Promise<MatchReport>;
   /** Finds the parts a mesh file holds twice or more, without a template, in the worker; the loaded scene stays. */
-  findRepeats(bytes: MeshBytes, options?: RepeatsOptions, control?: { signal?: AbortSignal }): Promise<RepeatsReport>;
+  findRepeats(bytes: MeshBytes, options?: RepeatsOptions, control?: { signal?: AbortSignal; onProgress?: ProgressCallback }): Promise<RepeatsReport>;
   /** Stops the running request and every queued one (they reject with a `CancelledError`); the scene is loaded again. */
   cancel(): void;
   /** Stops the worker for good. */

@@ -280,12 +280,16 @@ export class SearchWorker {
   /**
    * The parts a mesh file holds twice or more, found in the worker without
    * a template (`findRepeats` of the package); the loaded scene stays as
-   * it was. `signal`, an AbortSignal, cancels: the promise rejects with a
-   * `CancelledError`.
+   * it was. `onProgress({ step: 'repeat steps', done, total })` as each
+   * step ends (returning `false` or throwing cancels); `signal`, an
+   * AbortSignal, cancels: the promise rejects with a `CancelledError`.
    */
-  findRepeats(bytes, options = {}, { signal } = {}) {
+  findRepeats(bytes, options = {}, { signal, onProgress } = {}) {
     let request;
     try {
+      if (onProgress !== undefined && typeof onProgress !== 'function') {
+        throw new TypeError('fast-reject: onProgress must be a function');
+      }
       request = { type: 'repeats', bytes: asBytes(bytes, 'scene'), options: plainOptions(options, 'repeats') };
       if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
     } catch (error) {
@@ -293,7 +297,7 @@ export class SearchWorker {
     }
     const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
     signal?.addEventListener('abort', abort, { once: true });
-    return this.#request(request)
+    return this.#request(request, { onProgress })
       .then((reply) => reply.report)
       .finally(() => signal?.removeEventListener('abort', abort));
   }

@@ -5,7 +5,7 @@ import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import { test } from 'node:test';
 
-import { Scene, Template, findRepeats, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
+import { CancelledError, Scene, Template, findRepeats, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
 // The test probe, from the plain build's glue: the instance index.js loads.
 import { threadsUsed } from '../../pkg/plain/fast_reject.js';
 
@@ -214,6 +214,17 @@ test('findRepeats lists the parts a scene repeats, as the CLI does, and refuses 
   ]) {
     assert.throws(call, (error) => error instanceof Error && message.test(error.message), String(call));
   }
+  // Progress: every step in order, reading to writing; a callback that
+  // answers false, or throws, cancels.
+  const told = [];
+  findRepeats(truck, { instanced: 'nodes' }, { onProgress: (p) => told.push(p) });
+  assert.deepEqual(told.map((p) => `${p.step} ${p.done}/${p.total}`), Array.from({ length: 8 }, (_, i) => `repeat steps ${i + 1}/8`));
+  assert.throws(() => findRepeats(truck, {}, { onProgress: () => false }), CancelledError);
+  assert.throws(
+    () => findRepeats(truck, {}, { onProgress: () => { throw new Error('stop'); } }),
+    (error) => error instanceof CancelledError && /the progress callback threw: stop/.test(error.message),
+  );
+  assert.throws(() => findRepeats(truck, {}, { onProgress: 3 }), TypeError);
   // The module still works.
   assert.equal(findRepeats(truck).families.length, 1);
 });

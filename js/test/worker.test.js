@@ -215,7 +215,11 @@ test('the worker finds the repeated parts the calling thread finds, keeps its sc
   const search = new SearchWorker({ backend: 'cpu' });
   try {
     await search.loadScene(sceneBytes);
-    const report = await search.findRepeats(demoScene);
+    const told = [];
+    const report = await search.findRepeats(demoScene, {}, { onProgress: (p) => told.push(p) });
+    // Every step told in order, the last at the end.
+    assert.deepEqual(told.map((p) => p.done), Array.from({ length: told.length }, (_, i) => i + 1));
+    assert.ok(told.every((p) => p.step === 'repeat steps' && p.total === told.length), JSON.stringify(told));
     // The demo's three mugs: one part, three copies.
     assert.deepEqual(
       report.families.map((f) => f.copies.length),
@@ -225,7 +229,9 @@ test('the worker finds the repeated parts the calling thread finds, keeps its sc
     const { findRepeats } = await import('../../pkg/index.js');
     assert.deepEqual(report.families, findRepeats(demoScene).families);
     await assert.rejects(search.findRepeats(new Uint8Array(64)), /unrecognized mesh data/);
-    await assert.rejects(search.findRepeats(demoScene, { resolution: 64 }), /only option is format/);
+    await assert.rejects(search.findRepeats(demoScene, { resolution: 64 }), /the options are format and instanced/);
+    // A progress callback that answers false cancels.
+    await assert.rejects(search.findRepeats(demoScene, {}, { onProgress: () => false }), WorkerCancelledError);
     const aborted = new AbortController();
     aborted.abort();
     await assert.rejects(search.findRepeats(demoScene, {}, { signal: aborted.signal }), WorkerCancelledError);

@@ -30,6 +30,8 @@ const state = {
   lastMessage: null,
   /** The scene's repeated parts, as `findRepeats` gave them with the instanced file, or null. */
   repeats: null,
+  /** Their finding's last progress, `{done, total}` steps, or null. */
+  repeatsProgress: null,
 };
 
 const view = new View($('viewport'), {
@@ -610,7 +612,13 @@ async function findRepeatedParts() {
   $('repeats-summary').textContent = `Finding the parts ${scene.name} repeats…`;
   try {
     const started = performance.now();
-    const report = await matcher.findRepeats(scene.bytes, { format: scene.format, instanced: 'nodes' });
+    const onProgress = ({ done, total }) => {
+      if (generation !== state.generation) return;
+      state.repeatsProgress = { done, total };
+      $('repeats-summary').textContent = `Finding the parts ${scene.name} repeats… ${Math.round((100 * done) / total)}%`;
+    };
+    state.repeatsProgress = null;
+    const report = await matcher.findRepeats(scene.bytes, { format: scene.format, instanced: 'nodes' }, { onProgress });
     if (generation !== state.generation) return;
     state.repeats = report;
     showRepeats(report, scene, performance.now() - started);
@@ -903,6 +911,10 @@ globalThis.viewer = {
   /** The scene's repeated parts, once found: `findRepeats`'s report with the instanced file. */
   get repeats() {
     return state.repeats;
+  },
+  /** The last finding of repeated parts' progress: `{done, total}` steps, or null. */
+  get repeatsProgress() {
+    return state.repeatsProgress;
   },
   /** The options the last search was started with. */
   get options() {

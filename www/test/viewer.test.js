@@ -736,6 +736,9 @@ test('viewer: repeated parts — found without a template, a part lights up ever
     await page.click('#repeats-button');
     await page.waitForFunction(() => !!globalThis.viewer.repeats || !!globalThis.viewer.lastMessage, null, { timeout: 120_000, polling: 100 });
     assert.equal(await page.evaluate(() => globalThis.viewer.lastMessage), null);
+    // Every step was told, the last one at the end.
+    const told = await page.evaluate(() => globalThis.viewer.repeatsProgress);
+    assert.ok(told && told.done === told.total && told.total >= 7, JSON.stringify(told));
     const found = await page.evaluate(() => ({
       copies: globalThis.viewer.repeats.families.map((f) => f.copies.length),
       bytes: globalThis.viewer.repeats.written.bytes,
