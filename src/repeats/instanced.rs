@@ -46,23 +46,30 @@ pub fn instanced_model(
     };
     let mut kept_copies = 0;
     let mut residual = 0.0f64;
-    let mut written: Vec<Family> = Vec::with_capacity(families.len());
+    // Each family to write, and whether its representative is known to
+    // reproduce every copy.
+    let mut written: Vec<(Family, bool)> = Vec::with_capacity(families.len());
     let placed = Placed {
         model,
         mesh,
         sources,
     };
     for family in families {
-        if family.copies[1..]
+        if family
+            .copies
             .iter()
             .all(|copy| placed.reproduces(&family.copies[0].triangles, copy))
         {
-            written.push(family.clone());
+            written.push((family.clone(), true));
         } else {
-            written.extend(reproduced_families(&placed, family));
+            written.extend(
+                reproduced_families(&placed, family)
+                    .into_iter()
+                    .map(|f| (f, false)),
+            );
         }
     }
-    for (f, family) in written.iter().enumerate() {
+    for (f, (family, all_reproduced)) in written.iter().enumerate() {
         let frame = translation(family.center);
         // A copy the representative does not reproduce triangle for
         // triangle (a symmetric piece stored turned, its diagonals the
@@ -70,7 +77,7 @@ pub fn instanced_model(
         let exact: Vec<&RepeatCopy> = family
             .copies
             .iter()
-            .filter(|copy| placed.reproduces(&family.copies[0].triangles, copy))
+            .filter(|copy| *all_reproduced || placed.reproduces(&family.copies[0].triangles, copy))
             .collect();
         let shape = family_mesh(model, sources, family, f);
         // Where coordinates dwarf a copy's triangles, rounding a triangle

@@ -310,11 +310,8 @@ impl RepeatSteps {
 
     /// `error` for the page: a cancel says what the callback threw.
     fn error(&self, error: Error) -> JsError {
-        match (&error, &self.observer.failure) {
-            (Error::Cancelled, Some(why)) => JsError::new(&format!(
-                "{}: the progress callback threw: {why}",
-                Error::Cancelled
-            )),
+        match error {
+            Error::Cancelled => cancelled(&self.observer.failure),
             _ => js_error(error),
         }
     }
@@ -500,14 +497,7 @@ impl SceneHandle {
     ) -> Result<JsValue, JsError> {
         let mut report = match result {
             Ok(report) => report,
-            Err(Error::Cancelled) => {
-                return Err(JsError::new(&match progress.failure {
-                    Some(why) => {
-                        format!("{}: the progress callback threw: {why}", Error::Cancelled)
-                    }
-                    None => Error::Cancelled.to_string(),
-                }));
-            }
+            Err(Error::Cancelled) => return Err(cancelled(&progress.failure)),
             Err(error) => return Err(js_error(error)),
         };
         report.timings.load = self.load_ms + template.load_ms;
@@ -612,6 +602,15 @@ impl Observer for JsObserver {
             progress_to_js(progress)
         })
     }
+}
+
+/// A cancel for the page, saying what the callback threw (`failure`) if it
+/// threw.
+fn cancelled(failure: &Option<String>) -> JsError {
+    JsError::new(&match failure {
+        Some(why) => format!("{}: the progress callback threw: {why}", Error::Cancelled),
+        None => Error::Cancelled.to_string(),
+    })
 }
 
 /// Calls `callback` with `value`: a `Break` when it answers `false` or
