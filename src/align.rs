@@ -345,9 +345,42 @@ impl<'a> SurfaceIndex<'a> {
         Some((q, (b - a).cross(c - a).normalize_or_zero(), distance))
     }
 
-    /// Whether some surface lies within `reach` of `p`.
+    /// Whether some surface lies within `reach` of `p`: the same answer
+    /// as a closest-point query's, but it stops at the first triangle in
+    /// reach and looks no further than `reach`.
     pub fn reaches(&self, p: Vec3, reach: f64) -> bool {
-        self.nearest_triangle(p, reach).is_some()
+        let home = ((p - self.origin) / self.cell)
+            .floor()
+            .to_array()
+            .map(|c| c as i64);
+        let rings = (reach / self.cell).ceil() as i64 + 1;
+        let (lo, hi) = (home.map(|c| c - rings), home.map(|c| c + rings));
+        for z in lo[2].max(0)..=hi[2].min(self.dims[2] - 1) {
+            for y in lo[1].max(0)..=hi[1].min(self.dims[1] - 1) {
+                for x in lo[0].max(0)..=hi[0].min(self.dims[0] - 1) {
+                    let min = self.origin + Vec3::new(x as f64, y as f64, z as f64) * self.cell;
+                    let gap = (min - p).max(p - (min + self.cell)).max(Vec3::ZERO);
+                    if gap.length_squared() > reach * reach {
+                        continue;
+                    }
+                    let c = ((z * self.dims[1] + y) * self.dims[0] + x) as usize;
+                    for &t in &self.members[self.starts[c] as usize..self.starts[c + 1] as usize] {
+                        let (centre, radius) = self.spheres[t as usize];
+                        let centre =
+                            Vec3::new(centre[0] as f64, centre[1] as f64, centre[2] as f64);
+                        if p.distance(centre) - radius as f64 > reach {
+                            continue;
+                        }
+                        let [a, b, cc] = self.mesh.corners(self.triangles[t as usize] as usize);
+                        let q = closest_point_on_triangle(p, a, b, cc, t as usize);
+                        if q.distance2.sqrt() <= reach {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// The closest surface point to `p` within `reach`, the number of its
@@ -537,19 +570,25 @@ fn about_revolution_axis(
     // A feature's normal runs along the turn, so a turn's error shows in
     // full: turns half a voxel apart at the rim put the nearest within a
     // quarter voxel of its place, and the scan counts within half a voxel.
-    let lands_within = |pose: &Rigid, p: Vec3, within: f64| {
-        scene
-            .nearest(pose.apply(p), voxel)
-            .is_some_and(|n| n.2 <= within * voxel)
-    };
+    let lands_within =
+        |pose: &Rigid, p: Vec3, within: f64| scene.reaches(pose.apply(p), within * voxel);
     let lands = |pose: &Rigid, p: Vec3| lands_within(pose, p, 0.25);
     let stride = (features.len() / REVOLUTION_SAMPLES).max(1);
+    // How many of every `stride`-th feature land within `within` voxels;
+    // None once too few are left to make more than `beat`.
+    let on_features_above = |pose: &Rigid, stride: usize, within: f64, beat: Option<usize>| {
+        let scored: Vec<u32> = features.iter().step_by(stride).copied().collect();
+        let mut hits = 0;
+        for (k, &i) in scored.iter().enumerate() {
+            if beat.is_some_and(|b| hits + (scored.len() - k) <= b) {
+                return None;
+            }
+            hits += usize::from(lands_within(pose, samples.points[i as usize], within));
+        }
+        (beat.is_none_or(|b| hits > b)).then_some(hits)
+    };
     let on_features = |pose: &Rigid, stride: usize, within: f64| {
-        features
-            .iter()
-            .step_by(stride)
-            .filter(|&&i| lands_within(pose, samples.points[i as usize], within))
-            .count()
+        on_features_above(pose, stride, within, None).expect("nothing to beat")
     };
     let scored = features.len().div_ceil(stride);
     let gain = |n: usize| (n as f64 * REVOLUTION_GAIN).ceil().max(MIN_REVOLUTION_GAIN) as usize;
@@ -557,15 +596,14 @@ fn about_revolution_axis(
         .clamp(MIN_REVOLUTION_STEPS, MAX_REVOLUTION_STEPS);
     let mut best = (on_features(&full.pose, stride, 0.5) + gain(scored), None);
     // Nearest turns first: of turns alike (a piston's two bosses), the
-    // least.
+    // least. A turn's count stops once it can no longer beat the best.
     let nearest_first = (1..=steps / 2).flat_map(|k| [k as f64, -(k as f64)]);
     for step in nearest_first.take(steps - 1) {
         let angle = std::f64::consts::TAU * step / steps as f64;
         let turned = full
             .pose
             .after(&Rigid::turn(revolution.pivot, revolution.axis, angle));
-        let n = on_features(&turned, stride, 0.5);
-        if n > best.0 {
+        if let Some(n) = on_features_above(&turned, stride, 0.5, Some(best.0)) {
             best = (n, Some(turned));
         }
     }
