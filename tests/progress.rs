@@ -65,6 +65,22 @@ fn a_search_of_many_parts_counts_them_to_the_end() {
     assert!(recorder.seen[0].total > 1, "{:?}", recorder.seen);
 }
 
+#[test]
+fn parts_searched_side_by_side_are_counted_as_each_ends() {
+    let (scene, template) = demo();
+    let mut recorder = Recorder::default();
+    search(&scene, &template, &MatchOptions::DEFAULT, &mut recorder).unwrap();
+    let done: Vec<usize> = recorder
+        .seen
+        .iter()
+        .filter(|p| p.step == Progress::PARTS)
+        .map(|p| p.done)
+        .collect();
+    // One wave holds them all: held to its end, they would be one report.
+    assert_eq!(done, (1..=done.len()).collect::<Vec<_>>());
+    assert!(done.len() > 2, "{done:?}");
+}
+
 fn curvature_on_a_sphere() -> (Scene, TemplateSource, MatchOptions) {
     let scene = Scene::new(
         uv_sphere(Vec3::ZERO, 1.0, 32, 64),

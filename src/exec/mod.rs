@@ -8,8 +8,9 @@
 //! give identical results; a test at the top level checks it on whole
 //! searches.
 
-use std::ops::Range;
+use std::ops::{ControlFlow, Range};
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The value in `cell`, made by `make` if it is empty. Made outside the
 /// cell's lock: a thread waiting on the lock inside a parallel loop could
@@ -175,6 +176,48 @@ impl Threads {
         (0..len).map(f).collect()
     }
 
+    /// Like [`Threads::map_each`], but each item may tell the calling
+    /// thread events as it runs, and the calling thread hands them to
+    /// `listen` at once: the observer of a search is not thread-safe (a
+    /// JavaScript callback), yet parts searched side by side must show
+    /// their progress before all of them end. Once `listen` breaks, every
+    /// later [`Teller::tell`] answers `Break`, and the items should stop.
+    /// Inside a pool thread the events wait for the items' end: blocking
+    /// there could starve the pool.
+    pub fn map_each_told<R, E, F, L>(self, len: usize, f: F, mut listen: L) -> Vec<R>
+    where
+        R: Send,
+        E: Send,
+        F: Fn(usize, &Teller<'_, E>) -> R + Sync + Send,
+        L: FnMut(E) -> ControlFlow<()>,
+    {
+        // Counting the pool's threads starts it first: where threads cannot
+        // be spawned (plain WebAssembly), rayon makes the calling thread its
+        // only worker, which runs the items in order and can tell directly.
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            let threads = rayon::current_num_threads();
+            match rayon::current_thread_index() {
+                None => return relayed(len, &f, &mut listen),
+                Some(_) if threads > 1 => {
+                    let stopped = AtomicBool::new(false);
+                    let held = std::sync::Mutex::new(Vec::new());
+                    let results = self.map_each(len, |i| f(i, &Teller::Held(&held, &stopped)));
+                    for event in held.into_inner().unwrap_or_else(|e| e.into_inner()) {
+                        if listen(event).is_break() {
+                            break;
+                        }
+                    }
+                    return results;
+                }
+                Some(_) => {}
+            }
+        }
+        let stopped = AtomicBool::new(false);
+        let teller = Teller::Direct(std::cell::RefCell::new(&mut listen), &stopped);
+        (0..len).map(|i| f(i, &teller)).collect()
+    }
+
     /// Sorts `data`. Unstable, so the backends agree only where no two items
     /// compare equal: callers sort keys made unique (an index as the last
     /// field).
@@ -223,6 +266,89 @@ impl Threads {
     }
 }
 
+/// How an item of [`Threads::map_each_told`] reaches the calling thread.
+pub enum Teller<'a, E> {
+    /// On the calling thread itself (serial).
+    Direct(
+        std::cell::RefCell<&'a mut dyn FnMut(E) -> ControlFlow<()>>,
+        &'a AtomicBool,
+    ),
+    /// Through a channel the calling thread reads while the items run.
+    #[cfg(feature = "parallel")]
+    Relayed(&'a std::sync::mpsc::Sender<E>, &'a AtomicBool),
+    /// Kept until the items end (inside a pool thread).
+    Held(&'a std::sync::Mutex<Vec<E>>, &'a AtomicBool),
+}
+
+impl<E> Teller<'_, E> {
+    /// Hands `event` to the calling thread; `Break` once its listener
+    /// asked to stop.
+    pub fn tell(&self, event: E) -> ControlFlow<()> {
+        let stopped = match self {
+            Teller::Direct(listen, stopped) => {
+                if !stopped.load(Ordering::Relaxed) && listen.borrow_mut()(event).is_break() {
+                    stopped.store(true, Ordering::Relaxed);
+                }
+                stopped
+            }
+            #[cfg(feature = "parallel")]
+            Teller::Relayed(sender, stopped) => {
+                // A closed channel: the calling thread stopped listening.
+                if sender.send(event).is_err() {
+                    stopped.store(true, Ordering::Relaxed);
+                }
+                stopped
+            }
+            Teller::Held(held, stopped) => {
+                held.lock().unwrap_or_else(|e| e.into_inner()).push(event);
+                stopped
+            }
+        };
+        match stopped.load(Ordering::Relaxed) {
+            true => ControlFlow::Break(()),
+            false => ControlFlow::Continue(()),
+        }
+    }
+}
+
+/// [`Threads::map_each_told`] on rayon's pool, called from outside it: the
+/// items run on the pool while this thread hands their events on.
+#[cfg(feature = "parallel")]
+fn relayed<R, E, F, L>(len: usize, f: &F, listen: &mut L) -> Vec<R>
+where
+    R: Send,
+    E: Send,
+    F: Fn(usize, &Teller<'_, E>) -> R + Sync + Send,
+    L: FnMut(E) -> ControlFlow<()>,
+{
+    use rayon::prelude::*;
+    let stopped = AtomicBool::new(false);
+    let (sender, receiver) = std::sync::mpsc::channel::<E>();
+    let results = std::sync::Mutex::new(None);
+    rayon::in_place_scope(|scope| {
+        let (stopped, results) = (&stopped, &results);
+        // Moved in: the items' end, or a panic, drops the only sender,
+        // which ends the loop below; the scope then passes a panic on.
+        scope.spawn(move |_| {
+            let sender = &sender;
+            let mapped: Vec<R> = (0..len)
+                .into_par_iter()
+                .map(|i| f(i, &Teller::Relayed(sender, stopped)))
+                .collect();
+            *results.lock().unwrap_or_else(|e| e.into_inner()) = Some(mapped);
+        });
+        for event in receiver.iter() {
+            if !stopped.load(Ordering::Relaxed) && listen(event).is_break() {
+                stopped.store(true, Ordering::Relaxed);
+            }
+        }
+    });
+    results
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .expect("every item ran")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -264,5 +390,83 @@ mod tests {
             assert!(runs.chunks(5).all(|r| r.is_sorted()));
             assert!(!runs.is_sorted());
         }
+    }
+
+    #[test]
+    fn told_events_reach_the_caller_while_the_items_run() {
+        for b in [Threads::Serial, Threads::Parallel] {
+            let heard = AtomicBool::new(false);
+            // Item 0 waits for its own event to be heard: were events held
+            // until the items end, it would wait out its bound.
+            let waited = b.map_each_told(
+                4,
+                |i, teller| {
+                    if i != 0 {
+                        return true;
+                    }
+                    let _ = teller.tell(i);
+                    let bound = std::time::Instant::now() + std::time::Duration::from_secs(20);
+                    while !heard.load(Ordering::Acquire) {
+                        if std::time::Instant::now() > bound {
+                            return false;
+                        }
+                        std::thread::yield_now();
+                    }
+                    true
+                },
+                |_| {
+                    heard.store(true, Ordering::Release);
+                    ControlFlow::Continue(())
+                },
+            );
+            assert_eq!(waited, vec![true; 4], "{b:?}");
+        }
+    }
+
+    #[test]
+    fn a_break_from_the_listener_is_every_later_answer() {
+        for b in [Threads::Serial, Threads::Parallel] {
+            let heard = AtomicUsize::new(0);
+            let answers = b.map_each_told(
+                1,
+                |_, teller| {
+                    // Relayed, the break lands once the listener has run;
+                    // what is told meanwhile is not heard.
+                    let bound = std::time::Instant::now() + std::time::Duration::from_secs(20);
+                    while teller.tell(1).is_continue() && std::time::Instant::now() < bound {
+                        std::thread::yield_now();
+                    }
+                    [teller.tell(2), teller.tell(3)]
+                },
+                |_| {
+                    heard.fetch_add(1, Ordering::AcqRel);
+                    ControlFlow::Break(())
+                },
+            );
+            assert_eq!(answers[0], [ControlFlow::Break(()); 2], "{b:?}");
+            assert_eq!(heard.into_inner(), 1, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn inside_the_pool_every_told_event_is_heard_at_the_end() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut heard = Vec::new();
+        let results = pool.install(|| {
+            Threads::Parallel.map_each_told(
+                50,
+                |i, teller| {
+                    let _ = teller.tell(i);
+                    i * 2
+                },
+                |e| {
+                    heard.push(e);
+                    ControlFlow::Continue(())
+                },
+            )
+        });
+        heard.sort_unstable();
+        assert_eq!(heard, (0..50).collect::<Vec<_>>());
+        assert_eq!(results, (0..50).map(|i| i * 2).collect::<Vec<_>>());
     }
 }

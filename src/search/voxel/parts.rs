@@ -14,6 +14,7 @@ use crate::cascade::{LayerStats, Observer, Progress, finished};
 use crate::clock::now_ms;
 use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
 use crate::error::{Error, Result};
+use crate::exec::Teller;
 use crate::instances::{Instance, merge_duplicates};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, PartVoxels, Scene, ScenePart};
@@ -114,15 +115,15 @@ impl<'a> PartSearch<'a> {
                 let found = self.part(index, part, &mut runner).await?;
                 add_work(part_work(&found))?;
                 searched[k] = Some(found);
+                progress.done += 1;
+                report_progress(observer, &progress)?;
             } else {
-                let founds = self.cpu_wave(parts, &wave, observer)?;
+                let founds = self.cpu_wave(parts, &wave, observer, &mut progress)?;
                 add_work(founds.iter().map(part_work).sum())?;
                 for ((k, _), found) in wave.iter().zip(founds) {
                     searched[*k] = Some(found);
                 }
             }
-            progress.done += wave.len();
-            report_progress(observer, &progress)?;
         }
         Ok(searched)
     }
@@ -212,45 +213,55 @@ impl<'a> PartSearch<'a> {
     /// The parts of `wave` searched side by side on the CPU's threads, each
     /// with its own threads inside as well: a small part keeps few threads
     /// busy alone (a handful of blobs to verify, one instance to align).
-    /// Each part's layers are reported once the wave is done, in the
-    /// parts' order, and its times are shares of the wave's wall time.
+    /// Their layers and windows reach `observer` as they run, and each part
+    /// searched counts in `progress`; its times are shares of the wave's
+    /// wall time.
     fn cpu_wave(
         &self,
         parts: &[(usize, &ScenePart)],
         wave: &[(usize, Budget)],
         observer: &RefCell<&mut dyn Observer>,
+        progress: &mut Progress,
     ) -> Result<Vec<Found>> {
         let started = now_ms();
-        let runs = self.options.backend.map_each(wave.len(), |i| {
-            let (k, held) = &wave[i];
-            let (index, part) = parts[*k];
-            let mut layers = Vec::new();
-            let found = {
-                let mut collect = |s: &LayerStats| {
-                    layers.push(s.clone());
-                    std::ops::ControlFlow::Continue(())
-                };
-                let own: RefCell<&mut dyn Observer> = RefCell::new(&mut collect);
+        let mut cancelled = false;
+        let runs = self.options.backend.map_each_told(
+            wave.len(),
+            |i, teller| {
+                let (k, held) = &wave[i];
+                let (index, part) = parts[*k];
+                let mut told = ToldObserver(teller);
+                let own: RefCell<&mut dyn Observer> = RefCell::new(&mut told);
                 let mut runner = Runner {
                     observer: &own,
                     device: None,
                     wave: None,
                     held: held.clone(),
                 };
-                finished(self.part(index, part, &mut runner))
-            };
-            found.map(|found| (found, layers))
-        });
-        let wall = now_ms() - started;
-        let mut founds = Vec::with_capacity(runs.len());
-        for run in runs {
-            let (found, layers) = run?;
-            for layer in &layers {
-                if observer.borrow_mut().on_layer(layer).is_break() {
-                    return Err(Error::Cancelled);
+                let found = finished(self.part(index, part, &mut runner));
+                if found.is_ok() {
+                    let _ = teller.tell(WaveEvent::Searched);
                 }
-            }
-            founds.push(found);
+                found
+            },
+            |event| {
+                let mut observer = observer.borrow_mut();
+                let flow = match event {
+                    WaveEvent::Layer(stats) => observer.on_layer(&stats),
+                    WaveEvent::Progress(p) => observer.on_progress(&p),
+                    WaveEvent::Searched => {
+                        progress.done += 1;
+                        observer.on_progress(progress)
+                    }
+                };
+                cancelled |= flow.is_break();
+                flow
+            },
+        );
+        let wall = now_ms() - started;
+        let mut founds = runs.into_iter().collect::<Result<Vec<Found>>>()?;
+        if cancelled {
+            return Err(Error::Cancelled);
         }
         share_cpu_wave_time(&mut founds, wall);
         Ok(founds)
@@ -494,5 +505,26 @@ fn report_progress(observer: &RefCell<&mut dyn Observer>, progress: &Progress) -
     match observer.borrow_mut().on_progress(progress) {
         std::ops::ControlFlow::Continue(()) => Ok(()),
         std::ops::ControlFlow::Break(()) => Err(Error::Cancelled),
+    }
+}
+
+/// What a part searched in a CPU wave tells the calling thread.
+enum WaveEvent {
+    Layer(LayerStats),
+    Progress(Progress),
+    /// The part is searched.
+    Searched,
+}
+
+/// A part's observer in a CPU wave: its reports go to the calling thread.
+struct ToldObserver<'t, 'a>(&'t Teller<'a, WaveEvent>);
+
+impl Observer for ToldObserver<'_, '_> {
+    fn on_layer(&mut self, stats: &LayerStats) -> std::ops::ControlFlow<()> {
+        self.0.tell(WaveEvent::Layer(stats.clone()))
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> std::ops::ControlFlow<()> {
+        self.0.tell(WaveEvent::Progress(*progress))
     }
 }
