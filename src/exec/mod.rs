@@ -448,9 +448,14 @@ mod tests {
         }
     }
 
+    // WebAssembly without threads has no pool to build.
+    #[cfg(not(target_family = "wasm"))]
     #[test]
     fn inside_the_pool_every_told_event_is_heard_at_the_end() {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
         let mut heard = Vec::new();
         let results = pool.install(|| {
             Threads::Parallel.map_each_told(
