@@ -345,47 +345,26 @@ impl<'a> SurfaceIndex<'a> {
         Some((q, (b - a).cross(c - a).normalize_or_zero(), distance))
     }
 
-    /// Whether some surface lies within `reach` of `p`: the same answer
-    /// as a closest-point query's, but it stops at the first triangle in
-    /// reach and looks no further than `reach`.
+    /// Whether some surface lies within `reach` of `p`: the closest-point
+    /// search, stopped at the first triangle in reach.
     pub fn reaches(&self, p: Vec3, reach: f64) -> bool {
-        let home = ((p - self.origin) / self.cell)
-            .floor()
-            .to_array()
-            .map(|c| c as i64);
-        let rings = (reach / self.cell).ceil() as i64 + 1;
-        let (lo, hi) = (home.map(|c| c - rings), home.map(|c| c + rings));
-        for z in lo[2].max(0)..=hi[2].min(self.dims[2] - 1) {
-            for y in lo[1].max(0)..=hi[1].min(self.dims[1] - 1) {
-                for x in lo[0].max(0)..=hi[0].min(self.dims[0] - 1) {
-                    let min = self.origin + Vec3::new(x as f64, y as f64, z as f64) * self.cell;
-                    let gap = (min - p).max(p - (min + self.cell)).max(Vec3::ZERO);
-                    if gap.length_squared() > reach * reach {
-                        continue;
-                    }
-                    let c = ((z * self.dims[1] + y) * self.dims[0] + x) as usize;
-                    for &t in &self.members[self.starts[c] as usize..self.starts[c + 1] as usize] {
-                        let (centre, radius) = self.spheres[t as usize];
-                        let centre =
-                            Vec3::new(centre[0] as f64, centre[1] as f64, centre[2] as f64);
-                        if p.distance(centre) - radius as f64 > reach {
-                            continue;
-                        }
-                        let [a, b, cc] = self.mesh.corners(self.triangles[t as usize] as usize);
-                        let q = closest_point_on_triangle(p, a, b, cc, t as usize);
-                        if q.distance2.sqrt() <= reach {
-                            return true;
-                        }
-                    }
-                }
-            }
-        }
-        false
+        self.nearest_triangle_until(p, reach, reach).is_some()
     }
 
     /// The closest surface point to `p` within `reach`, the number of its
     /// triangle in this index, and its distance.
     fn nearest_triangle(&self, p: Vec3, reach: f64) -> Option<(Vec3, usize, f64)> {
+        self.nearest_triangle_until(p, reach, -1.0)
+    }
+
+    /// [`Self::nearest_triangle`], but the first triangle found within
+    /// `enough` ends the search.
+    fn nearest_triangle_until(
+        &self,
+        p: Vec3,
+        reach: f64,
+        enough: f64,
+    ) -> Option<(Vec3, usize, f64)> {
         let home = ((p - self.origin) / self.cell)
             .floor()
             .to_array()
@@ -436,6 +415,9 @@ impl<'a> SurfaceIndex<'a> {
                             if q.distance2 <= bound * bound {
                                 bound = q.distance2.sqrt();
                                 best = Some((q.point, t as usize));
+                                if bound <= enough {
+                                    return best.map(|(q, t)| (q, t, bound));
+                                }
                             }
                         }
                     }
@@ -577,10 +559,10 @@ fn about_revolution_axis(
     // How many of every `stride`-th feature land within `within` voxels;
     // None once too few are left to make more than `beat`.
     let on_features_above = |pose: &Rigid, stride: usize, within: f64, beat: Option<usize>| {
-        let scored: Vec<u32> = features.iter().step_by(stride).copied().collect();
+        let scored = features.len().div_ceil(stride);
         let mut hits = 0;
-        for (k, &i) in scored.iter().enumerate() {
-            if beat.is_some_and(|b| hits + (scored.len() - k) <= b) {
+        for (k, &i) in features.iter().step_by(stride).enumerate() {
+            if beat.is_some_and(|b| hits + (scored - k) <= b) {
                 return None;
             }
             hits += usize::from(lands_within(pose, samples.points[i as usize], within));

@@ -202,7 +202,16 @@ impl Threads {
                 Some(_) if threads > 1 => {
                     let stopped = AtomicBool::new(false);
                     let held = std::sync::Mutex::new(Vec::new());
-                    let results = self.map_each(len, |i| f(i, &Teller::Held(&held, &stopped)));
+                    let results = self.map_each(len, |i| {
+                        let route = Route::Held(&held);
+                        f(
+                            i,
+                            &Teller {
+                                route,
+                                stopped: &stopped,
+                            },
+                        )
+                    });
                     for event in held.into_inner().unwrap_or_else(|e| e.into_inner()) {
                         if listen(event).is_break() {
                             break;
@@ -214,7 +223,10 @@ impl Threads {
             }
         }
         let stopped = AtomicBool::new(false);
-        let teller = Teller::Direct(std::cell::RefCell::new(&mut listen), &stopped);
+        let teller = Teller {
+            route: Route::Direct(std::cell::RefCell::new(&mut listen)),
+            stopped: &stopped,
+        };
         (0..len).map(|i| f(i, &teller)).collect()
     }
 
@@ -266,45 +278,46 @@ impl Threads {
     }
 }
 
-/// How an item of [`Threads::map_each_told`] reaches the calling thread.
-pub enum Teller<'a, E> {
-    /// On the calling thread itself (serial).
-    Direct(
-        std::cell::RefCell<&'a mut dyn FnMut(E) -> ControlFlow<()>>,
-        &'a AtomicBool,
-    ),
+/// How an item of [`Threads::map_each_told`] reaches the calling thread,
+/// and whether its listener asked to stop.
+pub struct Teller<'a, E> {
+    route: Route<'a, E>,
+    stopped: &'a AtomicBool,
+}
+
+/// The way a [`Teller`]'s events go.
+enum Route<'a, E> {
+    /// To the listener, on the calling thread itself.
+    Direct(std::cell::RefCell<&'a mut dyn FnMut(E) -> ControlFlow<()>>),
     /// Through a channel the calling thread reads while the items run.
     #[cfg(feature = "parallel")]
-    Relayed(&'a std::sync::mpsc::Sender<E>, &'a AtomicBool),
+    Relayed(&'a std::sync::mpsc::Sender<E>),
     /// Kept until the items end (inside a pool thread).
-    Held(&'a std::sync::Mutex<Vec<E>>, &'a AtomicBool),
+    #[cfg(feature = "parallel")]
+    Held(&'a std::sync::Mutex<Vec<E>>),
 }
 
 impl<E> Teller<'_, E> {
     /// Hands `event` to the calling thread; `Break` once its listener
     /// asked to stop.
     pub fn tell(&self, event: E) -> ControlFlow<()> {
-        let stopped = match self {
-            Teller::Direct(listen, stopped) => {
-                if !stopped.load(Ordering::Relaxed) && listen.borrow_mut()(event).is_break() {
-                    stopped.store(true, Ordering::Relaxed);
-                }
-                stopped
+        let stop = match &self.route {
+            Route::Direct(listen) => {
+                !self.stopped.load(Ordering::Relaxed) && listen.borrow_mut()(event).is_break()
             }
+            // A closed channel: the calling thread stopped listening.
             #[cfg(feature = "parallel")]
-            Teller::Relayed(sender, stopped) => {
-                // A closed channel: the calling thread stopped listening.
-                if sender.send(event).is_err() {
-                    stopped.store(true, Ordering::Relaxed);
-                }
-                stopped
-            }
-            Teller::Held(held, stopped) => {
+            Route::Relayed(sender) => sender.send(event).is_err(),
+            #[cfg(feature = "parallel")]
+            Route::Held(held) => {
                 held.lock().unwrap_or_else(|e| e.into_inner()).push(event);
-                stopped
+                false
             }
         };
-        match stopped.load(Ordering::Relaxed) {
+        if stop {
+            self.stopped.store(true, Ordering::Relaxed);
+        }
+        match self.stopped.load(Ordering::Relaxed) {
             true => ControlFlow::Break(()),
             false => ControlFlow::Continue(()),
         }
@@ -333,7 +346,10 @@ where
             let sender = &sender;
             let mapped: Vec<R> = (0..len)
                 .into_par_iter()
-                .map(|i| f(i, &Teller::Relayed(sender, stopped)))
+                .map(|i| {
+                    let route = Route::Relayed(sender);
+                    f(i, &Teller { route, stopped })
+                })
                 .collect();
             *results.lock().unwrap_or_else(|e| e.into_inner()) = Some(mapped);
         });
