@@ -60,7 +60,7 @@ pub struct Survivor {
 pub struct Progress {
     /// What is being worked through: [`Progress::PARTS`],
     /// [`Progress::WINDOWS`], [`Progress::CANDIDATES`],
-    /// [`Progress::SURFACE`] or [`Progress::REPEATS`].
+    /// [`Progress::SURFACE`], [`Progress::REPEATS`] or [`Progress::SCENE`].
     pub step: &'static str,
     /// How many of them are done.
     pub done: usize,
@@ -81,6 +81,9 @@ impl Progress {
     /// The steps of finding a scene's repeated parts, and of reading and
     /// writing it around them.
     pub const REPEATS: &'static str = "repeat steps";
+    /// The steps of preparing a scene: its voxel work checked, its
+    /// connected parts, their shapes, its memory checked.
+    pub const SCENE: &'static str = "scene steps";
 
     /// The share done, 0 to 1 (1 when there is nothing to do).
     pub fn share(&self) -> f64 {
@@ -101,6 +104,42 @@ pub trait Observer {
     /// Called as a long step advances; ignored unless overridden.
     fn on_progress(&mut self, _progress: &Progress) -> ControlFlow<()> {
         ControlFlow::Continue(())
+    }
+}
+
+/// A fixed number of steps, told to an observer as each ends: one count,
+/// so that every step-wise job reports and stops alike.
+pub(crate) struct Steps<'a> {
+    observer: &'a mut dyn Observer,
+    step: &'static str,
+    total: usize,
+    done: usize,
+}
+
+impl<'a> Steps<'a> {
+    /// `total` steps of kind `step` ([`Progress::SCENE`], ...), none done.
+    pub(crate) fn new(observer: &'a mut dyn Observer, step: &'static str, total: usize) -> Self {
+        Steps {
+            observer,
+            step,
+            total,
+            done: 0,
+        }
+    }
+
+    /// One more step is done; [`Error::Cancelled`] when the observer says
+    /// stop.
+    pub(crate) fn done(&mut self) -> Result<()> {
+        self.done += 1;
+        let progress = Progress {
+            step: self.step,
+            done: self.done,
+            total: self.total,
+        };
+        match self.observer.on_progress(&progress) {
+            ControlFlow::Continue(()) => Ok(()),
+            ControlFlow::Break(()) => Err(Error::Cancelled),
+        }
     }
 }
 

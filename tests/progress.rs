@@ -145,3 +145,32 @@ fn a_break_from_progress_cancels_the_search() {
     assert!(matches!(e, Error::Cancelled), "{e:?}");
     assert_eq!(recorder.seen.len(), 1);
 }
+
+#[test]
+fn preparing_a_scene_counts_its_steps_and_a_break_there_cancels_it() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
+    let mesh = load(&std::fs::read(format!("{dir}/scene.glb")).unwrap(), None).unwrap();
+    let mut recorder = Recorder::default();
+    let scene = Scene::new_observed(mesh.clone(), &SceneOptions::DEFAULT, &mut recorder).unwrap();
+    counts_up_to_the_end(&recorder.seen, Progress::SCENE);
+    assert_eq!(recorder.seen.len(), Scene::BUILD_STEPS);
+    assert_eq!(
+        scene.parts().len(),
+        Scene::new(mesh.clone(), &SceneOptions::DEFAULT)
+            .unwrap()
+            .parts()
+            .len()
+    );
+    for stop_at in 1..=Scene::BUILD_STEPS {
+        let mut stopping = Recorder {
+            stop_at: Some(stop_at),
+            ..Recorder::default()
+        };
+        let cancelled = Scene::new_observed(mesh.clone(), &SceneOptions::DEFAULT, &mut stopping);
+        assert!(
+            matches!(cancelled, Err(Error::Cancelled)),
+            "break at step {stop_at}"
+        );
+        assert_eq!(stopping.seen.len(), stop_at);
+    }
+}

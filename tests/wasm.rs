@@ -44,7 +44,7 @@ fn message(error: JsError) -> String {
 fn zoo_bunny_matches_the_native_run() {
     let native: serde_json::Value = serde_json::from_str(NATIVE_REPORT).unwrap();
     let expected = native["instances"].as_array().unwrap();
-    let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED, None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, js(r#"{"format": "glb"}"#)).unwrap();
     let layers = Array::new();
     let record = {
@@ -105,7 +105,7 @@ fn zoo_bunny_matches_the_native_run() {
 
 #[wasm_bindgen_test]
 fn progress_callback_cancels_with_false_or_a_throw() {
-    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#), None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let stop = Function::new_no_args("return false;");
     let error = message(
@@ -131,30 +131,32 @@ fn progress_callback_cancels_with_false_or_a_throw() {
 #[wasm_bindgen_test]
 fn bad_input_is_an_error_and_the_module_stays_usable() {
     let garbage = [0xde, 0xad, 0xbe, 0xef, 1, 2, 3];
-    let e = message(SceneHandle::from_bytes(&garbage, JsValue::UNDEFINED).unwrap_err());
+    let e = message(SceneHandle::from_bytes(&garbage, JsValue::UNDEFINED, None).unwrap_err());
     assert!(e.contains("unrecognized mesh data"), "{e}");
-    let e = message(SceneHandle::from_bytes(&[], JsValue::UNDEFINED).unwrap_err());
+    let e = message(SceneHandle::from_bytes(&[], JsValue::UNDEFINED, None).unwrap_err());
     assert!(e.contains("empty"), "{e}");
-    let e = message(SceneHandle::from_bytes(b"glTF\x02\0\0\0", JsValue::UNDEFINED).unwrap_err());
+    let e =
+        message(SceneHandle::from_bytes(b"glTF\x02\0\0\0", JsValue::UNDEFINED, None).unwrap_err());
     assert!(e.contains("glTF"), "{e}");
-    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"format": "dwg"}"#)).unwrap_err());
+    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"format": "dwg"}"#), None).unwrap_err());
     assert!(e.contains("format"), "{e}");
     let e = message(TemplateHandle::from_selection(f64::NAN, 0.0, 0.0, 1.0).unwrap_err());
     assert!(e.contains("finite"), "{e}");
     // A grid beyond wasm memory is refused before anything is allocated.
-    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 16384}"#)).unwrap_err());
+    let e =
+        message(SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 16384}"#), None).unwrap_err());
     assert!(e.contains("lower the resolution"), "{e}");
     let nan = Object::new();
     Reflect::set(&nan, &"resolution".into(), &f64::NAN.into()).unwrap();
-    let e = message(SceneHandle::from_bytes(SCENE, nan.into()).unwrap_err());
+    let e = message(SceneHandle::from_bytes(SCENE, nan.into(), None).unwrap_err());
     assert!(e.contains("resolution") && e.contains("finite"), "{e}");
     // Scene and template options are checked as strictly as match options.
-    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"resolutoin": 64}"#)).unwrap_err());
+    let e = message(SceneHandle::from_bytes(SCENE, js(r#"{"resolutoin": 64}"#), None).unwrap_err());
     assert!(e.contains("unknown scene option 'resolutoin'"), "{e}");
     let e = message(TemplateHandle::from_bytes(TEMPLATE, js(r#"{"resolution": 64}"#)).unwrap_err());
     assert!(e.contains("unknown template option 'resolution'"), "{e}");
 
-    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#), None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let options = js;
     for (bad, expect) in [
@@ -215,7 +217,7 @@ fn the_option_defaults_are_accepted_as_options() {
     // Set at a lower resolution (the defaults' 512 is slow here), and the
     // match defaults as they are: every key they hold is a valid option.
     Reflect::set(&scene_defaults, &"resolution".into(), &128.into()).unwrap();
-    let mut scene = SceneHandle::from_bytes(SCENE, scene_defaults).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, scene_defaults, None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let report = scene
         .run_match(&template, match_defaults, None, None)
@@ -225,7 +227,7 @@ fn the_option_defaults_are_accepted_as_options() {
 
 #[wasm_bindgen_test]
 fn options_that_throw_while_read_are_an_error_and_the_scene_stays_usable() {
-    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#)).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, js(r#"{"resolution": 128}"#), None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     // A Proxy's trap that throws, while the binding reads the options: an
     // exception through the binding's frames would leave the scene

@@ -41,7 +41,7 @@ fn layers(report: &JsValue) -> Vec<(String, f64, f64, f64)> {
 
 #[wasm_bindgen_test]
 async fn webgpu_finds_what_the_cpu_finds() {
-    let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED).unwrap();
+    let mut scene = SceneHandle::from_bytes(SCENE, JsValue::UNDEFINED, None).unwrap();
     let template = TemplateHandle::from_bytes(TEMPLATE, JsValue::UNDEFINED).unwrap();
     let cpu = scene
         .run_match(&template, JsValue::UNDEFINED, None, None)

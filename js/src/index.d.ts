@@ -180,9 +180,9 @@ export class CancelledError extends Error {
 /** Called after every cascade layer of every scene part searched (the report sums them per stage and layer); return `false` (or throw) to cancel: the search then throws (rejects with) a `CancelledError`. */
 export type LayerCallback = (stats: LayerStats) => boolean | void;
 
-/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices, after the steps of welding the mesh into a surface; `findRepeats`: its steps, reading to writing). */
+/** How far a search has come: `done` of `total` scene parts searched (a part too large for one grid: its windows; the curvature search: the mesh's vertices, after the steps of welding the mesh into a surface; `findRepeats`: its steps, reading to writing; `Scene.fromBytes`: its steps, reading to splitting the scene into parts). */
 export interface SearchProgress {
-  step: 'parts' | 'windows' | 'candidates' | 'surface steps' | 'repeat steps';
+  step: 'parts' | 'windows' | 'candidates' | 'surface steps' | 'repeat steps' | 'scene steps';
   done: number;
   total: number;
 }
@@ -246,8 +246,8 @@ export function findRepeats(bytes: MeshBytes, options?: RepeatsOptions, observe?
 
 export class Scene extends Handle {
   private constructor();
-  /** Parses a scene and splits it into its parts; throws an Error with a readable message on bad input. */
-  static fromBytes(bytes: MeshBytes, options?: SceneOptions): Scene;
+  /** Parses a scene and splits it into its parts, telling `onProgress` its steps; throws an Error with a readable message on bad input. */
+  static fromBytes(bytes: MeshBytes, options?: SceneOptions, observe?: { onProgress?: ProgressCallback }): Scene;
   readonly resolution: number;
   readonly voxelSize: number;
   /** Connected parts: the voxel search describes each point by its own part. */

@@ -318,7 +318,7 @@ export function findRepeats(bytes, options, observe) {
   }
 }
 
-/** `findRepeats`'s third argument: `{ onProgress }` or nothing. */
+/** `findRepeats`'s and `Scene.fromBytes`'s third argument: `{ onProgress }` or nothing. */
 function checkObserve(observe, what) {
   if (observe === undefined || observe === null) return {};
   if (typeof observe !== 'object' || (observe.onProgress !== undefined && typeof observe.onProgress !== 'function')) {
@@ -329,16 +329,26 @@ function checkObserve(observe, what) {
 
 /** A voxelized scene, searched any number of times. */
 export class Scene extends Handle {
-  /** Options are checked in the module, against the core's schema. */
-  static fromBytes(bytes, options) {
+  /**
+   * Options are checked in the module, against the core's schema.
+   * `onProgress({ step: 'scene steps', done, total })` as each step ends,
+   * reading the file first (returning `false` or throwing cancels: a
+   * `CancelledError`).
+   */
+  static fromBytes(bytes, options, observe) {
     const data = asBytes(bytes, 'scene');
     const settings = plainOptions(options, 'scene');
-    return new Scene(
-      call((glue) => {
-        checkFits(glue, data, 'scene');
-        return glue.Scene.fromBytes(data, settings);
-      }),
-    );
+    const progress = new Progress(checkObserve(observe, 'Scene.fromBytes'));
+    try {
+      return new Scene(
+        call((glue) => {
+          checkFits(glue, data, 'scene');
+          return glue.Scene.fromBytes(data, settings, progress.onProgress);
+        }),
+      );
+    } catch (error) {
+      throw progress.explain(error);
+    }
   }
   get resolution() {
     return this.inner.resolution;

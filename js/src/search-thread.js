@@ -32,7 +32,8 @@ async function handle(message, send) {
       const start = performance.now();
       // The old scene stays until the new one has parsed: a broken file
       // must not cost the caller the scene they had.
-      const next = Scene.fromBytes(message.bytes, message.options);
+      const onProgress = (progress) => send({ type: 'progress', id, progress });
+      const next = Scene.fromBytes(message.bytes, message.options, { onProgress });
       scene?.free();
       scene = next;
       const { triangles, parts, resolution, voxelSize } = next;

@@ -62,8 +62,8 @@ export class SearchWorker {
   constructor(options?: SearchWorkerOptions);
   /** Resolves once the module is loaded in the worker. */
   ready(): Promise<WorkerInfo>;
-  /** Parses a scene and keeps it for the next searches; on failure the previous scene stays. The bytes are copied. */
-  loadScene(bytes: MeshBytes, options?: SceneOptions): Promise<SceneInfo>;
+  /** Parses a scene and keeps it for the next searches, telling `onProgress` its steps; on failure or cancel the previous scene stays. The bytes are copied. */
+  loadScene(bytes: MeshBytes, options?: SceneOptions, control?: { signal?: AbortSignal; onProgress?: ProgressCallback }): Promise<SceneInfo>;
   /** Parses a template and forgets it: rejects with the reason a search with it would fail at once (a broken file). */
   checkTemplate(template: TemplateSource): Promise<void>;
   /** Searches the loaded scene; rejects with a `CancelledError` when cancelled, an `Error` on bad input. */

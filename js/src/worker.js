@@ -218,19 +218,30 @@ export class SearchWorker {
    * Parses a scene in the worker and keeps it for the next searches. On
    * failure the previous scene stays loaded. The bytes are copied, not
    * transferred: the caller keeps them, and so does this object, to load
-   * the scene again after a cancel.
+   * the scene again after a cancel. `onProgress({ step: 'scene steps',
+   * done, total })` as each step ends (returning `false` or throwing
+   * cancels); `signal`, an AbortSignal, cancels. A cancelled load rejects
+   * with a `CancelledError` and leaves the previous scene loaded.
    */
-  loadScene(bytes, options = {}) {
+  loadScene(bytes, options = {}, { signal, onProgress } = {}) {
     let scene;
     try {
+      if (onProgress !== undefined && typeof onProgress !== 'function') {
+        throw new TypeError('fast-reject: onProgress must be a function');
+      }
       scene = { bytes: asBytes(bytes, 'scene').slice(), options: plainOptions(options, 'scene') };
+      if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
     } catch (error) {
       return Promise.reject(error);
     }
-    return this.#request({ type: 'load', ...scene }).then((reply) => {
-      this.#scene = scene;
-      return reply.scene;
-    });
+    const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
+    signal?.addEventListener('abort', abort, { once: true });
+    return this.#request({ type: 'load', ...scene }, { onProgress })
+      .then((reply) => {
+        this.#scene = scene;
+        return reply.scene;
+      })
+      .finally(() => signal?.removeEventListener('abort', abort));
   }
 
   /**

@@ -254,3 +254,31 @@ test('findRepeats writes the instanced glTF the CLI writes, byte for byte, and t
   // Without the option, no file.
   assert.equal(findRepeats(await readFile(path)).glb, undefined);
 });
+
+test('loading a scene tells its steps, reading first, and a false from onProgress cancels it', async () => {
+  await init();
+  const seen = [];
+  const scene = Scene.fromBytes(sceneBytes, {}, { onProgress: (progress) => seen.push(progress) });
+  try {
+    assert.ok(seen.length >= 2, JSON.stringify(seen));
+    assert.ok(seen.every((p, i) => p.step === 'scene steps' && p.done === i + 1 && p.total === seen.length));
+  } finally {
+    scene.free();
+  }
+  // Stopped at each step in turn: a CancelledError, and the module still loads.
+  for (let stopAt = 1; stopAt <= seen.length; stopAt += 1) {
+    assert.throws(() => Scene.fromBytes(sceneBytes, {}, { onProgress: ({ done }) => done < stopAt }), CancelledError);
+  }
+  const thrown = new RangeError('stop loading');
+  assert.throws(
+    () =>
+      Scene.fromBytes(sceneBytes, {}, {
+        onProgress: () => {
+          throw thrown;
+        },
+      }),
+    (error) => error instanceof CancelledError && error.cause === thrown,
+  );
+  assert.throws(() => Scene.fromBytes(sceneBytes, {}, { onProgress: 7 }), TypeError);
+  Scene.fromBytes(sceneBytes).free();
+});

@@ -241,3 +241,26 @@ test('the worker finds the repeated parts the calling thread finds, keeps its sc
     search.terminate();
   }
 });
+
+test('loading a scene in the worker tells its steps; a cancelled load keeps the scene before it', async () => {
+  const search = new SearchWorker({ backend: 'cpu' });
+  try {
+    const seen = [];
+    await search.loadScene(demoScene, {}, { onProgress: (progress) => seen.push(progress) });
+    assert.ok(seen.length >= 2, JSON.stringify(seen));
+    assert.ok(seen.every((p, i) => p.step === 'scene steps' && p.done === i + 1 && p.total === seen.length));
+    const demoFound = (await search.match({ bytes: demoTemplate })).instances.length;
+    // A false from onProgress, and an abort, while zoo-bunny loads.
+    await assert.rejects(search.loadScene(sceneBytes, {}, { onProgress: () => false }), CancelledError);
+    const controller = new AbortController();
+    await assert.rejects(
+      search.loadScene(sceneBytes, {}, { signal: controller.signal, onProgress: () => controller.abort('enough') }),
+      (error) => error instanceof CancelledError && error.cause === 'enough',
+    );
+    // The demo is still the loaded scene.
+    assert.equal((await search.match({ bytes: demoTemplate })).instances.length, demoFound);
+    assert.ok(demoFound > 0);
+  } finally {
+    search.terminate();
+  }
+});

@@ -18,10 +18,8 @@ mod overlaps;
 pub use congruent::{CopyOf, MirrorImages, congruent_parts};
 pub use instanced::{Instanced, Placement, instanced_model, split_by_material};
 
-use std::ops::ControlFlow;
-
-use crate::cascade::{Observer, Progress};
-use crate::error::{Error, Result};
+use crate::cascade::{Observer, Progress, Steps};
+use crate::error::Result;
 use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::{
@@ -106,33 +104,21 @@ pub fn find_repeats_observed(
     backend: Threads,
     observer: &mut dyn Observer,
 ) -> Result<Vec<Family>> {
-    let mut done = 0;
-    let mut step_done = |observer: &mut dyn Observer| {
-        done += 1;
-        let progress = Progress {
-            step: Progress::REPEATS,
-            done,
-            total: REPEAT_STEPS,
-        };
-        match observer.on_progress(&progress) {
-            ControlFlow::Continue(()) => Ok(()),
-            ControlFlow::Break(()) => Err(Error::Cancelled),
-        }
-    };
+    let mut steps = Steps::new(observer, Progress::REPEATS, REPEAT_STEPS);
     let pieces = pieces_of(mesh, backend);
-    step_done(observer)?;
+    steps.done()?;
     let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
     let mut copies = congruent_parts(mesh, &lists, backend, MirrorImages::Refused);
-    step_done(observer)?;
+    steps.done()?;
     mirrors::mirror_lone_pieces(mesh, &pieces, &mut copies, backend);
-    step_done(observer)?;
+    steps.done()?;
     let families: Vec<Family> = bodies::bodies(mesh, &pieces, &copies)
         .into_iter()
         .map(|group| family_of(mesh, &pieces, group))
         .collect();
-    step_done(observer)?;
+    steps.done()?;
     let mut families = mirrors::with_mirror_images(mesh, families, backend);
-    step_done(observer)?;
+    steps.done()?;
     for family in &mut families {
         // The representative first, the rest in the order the file has them.
         family.copies[1..].sort_by_key(|c| c.triangles[0]);

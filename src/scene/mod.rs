@@ -4,14 +4,15 @@
 //! Built once, searched any number of times.
 
 use crate::budget::{Budget, Item};
+use crate::cascade::{Observer, Progress, Steps};
 use crate::clock::now_ms;
 use crate::descriptor::curvature::Surface;
 use crate::descriptor::curvature::surface_bytes;
 use crate::error::{Error, Result};
 use crate::exec::Threads;
 use crate::math::Aabb;
-use crate::mesh::TriMesh;
 use crate::mesh::mesh_bytes;
+use crate::mesh::{TriMesh, connected_components};
 use crate::voxel::{GridSpec, PADDING, WindowedMesh};
 use crate::voxel::{voxel_bytes, voxel_work};
 use std::borrow::Cow;
@@ -22,8 +23,8 @@ mod parts;
 
 pub use part_voxels::PartVoxels;
 pub(crate) use part_voxels::nearest_voxel;
+use parts::join_shells;
 pub use parts::{ScenePart, ShellRule};
-use parts::{join_shells, split_parts};
 
 /// How to voxelize a scene.
 ///
@@ -167,6 +168,18 @@ impl Scene {
     /// Prepares `mesh` for searching: splits it into its connected parts and
     /// checks now that the largest part's voxels fit the memory budget.
     pub fn new(mesh: TriMesh, options: &SceneOptions) -> Result<Scene> {
+        Scene::new_observed(mesh, options, &mut ())
+    }
+
+    /// [`Scene::new`], telling `observer` as each of [`Scene::BUILD_STEPS`]
+    /// ends ([`Progress::SCENE`]): seconds on a mesh of tens of millions of
+    /// triangles. A `Break` stops it with [`Error::Cancelled`].
+    pub fn new_observed(
+        mesh: TriMesh,
+        options: &SceneOptions,
+        observer: &mut dyn Observer,
+    ) -> Result<Scene> {
+        let mut steps = Steps::new(observer, Progress::SCENE, Scene::BUILD_STEPS);
         let spec = GridSpec::for_scene(mesh.bounds(), options.resolution)?;
         check_voxel_work(
             "scene",
@@ -176,7 +189,11 @@ impl Scene {
             options.max_voxel_work,
             options.backend,
         )?;
-        let parts = split_parts(&mesh, options.backend);
+        steps.done()?;
+        let components = connected_components(&mesh, options.backend);
+        steps.done()?;
+        let parts = ScenePart::all(&mesh, components, options.backend);
+        steps.done()?;
         let mesh_estimate = mesh_bytes(mesh.positions().len(), mesh.triangles().len());
         let largest_grids = |spec: &GridSpec| {
             parts
@@ -211,6 +228,7 @@ impl Scene {
                 },
                 largest_grids(&spec),
             )?;
+        steps.done()?;
         Ok(Scene {
             mesh,
             spec,
@@ -222,6 +240,10 @@ impl Scene {
             surface: OnceLock::new(),
         })
     }
+
+    /// The steps [`Scene::new_observed`] reports: the voxel work checked,
+    /// the connected components, their shapes, the memory checked.
+    pub const BUILD_STEPS: usize = 4;
 
     /// The threads the scene's builds use, and so the searches on it.
     pub fn backend(&self) -> Threads {

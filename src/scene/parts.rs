@@ -4,7 +4,7 @@
 
 use crate::exec::Threads;
 use crate::math::{Aabb, Vec3};
-use crate::mesh::{TriMesh, VertexNumbering, connected_components, minimal_bounding_sphere};
+use crate::mesh::{TriMesh, VertexNumbering, minimal_bounding_sphere};
 
 /// One connected component of the scene's mesh: the voxel descriptors see
 /// a candidate's own part only, so that neighbours touching it or sitting
@@ -21,7 +21,7 @@ pub struct ScenePart {
 impl ScenePart {
     /// The parts of `mesh` made of each of `lists`, their spheres and boxes
     /// found on `backend`'s threads.
-    fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Threads) -> Vec<ScenePart> {
+    pub(super) fn all(mesh: &TriMesh, lists: Vec<Vec<u32>>, backend: Threads) -> Vec<ScenePart> {
         let shapes = backend.map_each(lists.len(), |k| ScenePart::shape(mesh, &lists[k]));
         lists
             .into_iter()
@@ -73,11 +73,6 @@ impl ScenePart {
     pub fn components(&self) -> usize {
         self.components
     }
-}
-
-/// The connected parts of `mesh` with their bounds and bounding spheres.
-pub(super) fn split_parts(mesh: &TriMesh, backend: Threads) -> Vec<ScenePart> {
-    ScenePart::all(mesh, connected_components(mesh, backend), backend)
 }
 
 /// How the shells of a template of several are gathered into one part:

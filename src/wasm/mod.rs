@@ -213,12 +213,13 @@ pub fn find_repeats_in(
 ) -> Result<JsValue, JsError> {
     let settings = options::RepeatsSettings::from_js(&options)?;
     ensure_started();
-    let mut progress = RepeatSteps {
+    let mut progress = CountedSteps {
         observer: JsObserver {
             on_layer: None,
             on_progress,
             failure: None,
         },
+        step: Progress::REPEATS,
         before: 0,
         // Reading, finding, the materials, and writing where asked.
         total: 1 + REPEAT_STEPS + 1 + usize::from(settings.instanced.is_some()),
@@ -283,22 +284,22 @@ pub fn find_repeats_in(
     Ok(object.into())
 }
 
-/// `findRepeats`'s progress: its own steps (reading, the materials,
-/// writing) and the core's, counted as one sequence of
-/// [`Progress::REPEATS`].
-struct RepeatSteps {
+/// A job's progress as one sequence of `step`: the binding's own steps
+/// (reading the file, ...) and the core's, counted on from them.
+struct CountedSteps {
     observer: JsObserver,
+    step: &'static str,
     /// Steps done before the current one.
     before: usize,
     total: usize,
 }
 
-impl RepeatSteps {
+impl CountedSteps {
     /// Tells the page one more step is done.
     fn step_done(&mut self) -> Result<(), JsError> {
         self.before += 1;
         let progress = Progress {
-            step: Progress::REPEATS,
+            step: self.step,
             done: self.before,
             total: self.total,
         };
@@ -317,14 +318,14 @@ impl RepeatSteps {
     }
 }
 
-impl Observer for RepeatSteps {
+impl Observer for CountedSteps {
     fn on_layer(&mut self, _: &LayerStats) -> ControlFlow<()> {
         ControlFlow::Continue(())
     }
 
     fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
         self.observer.on_progress(&Progress {
-            step: Progress::REPEATS,
+            step: self.step,
             done: self.before + progress.done,
             total: self.total,
         })
@@ -345,16 +346,35 @@ impl SceneHandle {
     /// searching. `options` is a plain object (see
     /// `options::SceneSettings`): `format` names the format, or it is
     /// recognized from the content, and the core's scene options.
+    /// `on_progress` is called as each step ends with `{step: "scene
+    /// steps", done, total}` (reading, then the scene's build steps);
+    /// returning `false` from it or throwing cancels.
     #[wasm_bindgen(js_name = fromBytes)]
-    pub fn from_bytes(bytes: &[u8], options: JsValue) -> Result<SceneHandle, JsError> {
+    pub fn from_bytes(
+        bytes: &[u8],
+        options: JsValue,
+        on_progress: Option<Function>,
+    ) -> Result<SceneHandle, JsError> {
         let settings = options::SceneSettings::from_js(&options)?;
+        let mut progress = CountedSteps {
+            observer: JsObserver {
+                on_layer: None,
+                on_progress,
+                failure: None,
+            },
+            step: Progress::SCENE,
+            before: 0,
+            total: 1 + Scene::BUILD_STEPS,
+        };
         let (mesh, parse_ms) = parse_mesh(bytes, settings.format)?;
+        progress.step_done()?;
         // After parsing: the budget is what is free with the mesh in memory.
         let options = settings
             .options
             .with_memory_budget(options::memory_budget(0));
         let start = now_ms();
-        let scene = Scene::new(mesh, &options).map_err(js_error)?;
+        let scene =
+            Scene::new_observed(mesh, &options, &mut progress).map_err(|e| progress.error(e))?;
         // Splitting the scene into its parts counts as loading it.
         let load_ms = parse_ms + now_ms() - start;
         Ok(SceneHandle { scene, load_ms })

@@ -125,7 +125,14 @@ async function openScene(files) {
     // The package reads it first: its checks say what is wrong with a file
     // in words; three.js's would be its internals.
     $('progress-text').textContent = `Loading ${model.name} into the matcher…`;
-    await matcher.loadScene(model.bytes, { format: model.format });
+    $('progress-bar').value = 0;
+    // Reading the file, then splitting it into parts: seconds on a whole
+    // building, so the bar follows the steps.
+    const onProgress = ({ done, total }) => {
+      $('progress-bar').value = Math.min(done / total, 1);
+      $('progress-text').textContent = `Loading ${model.name} into the matcher: ${SCENE_STEPS[done - 1] ?? 'step ' + done} done (${done} of ${total})`;
+    };
+    await matcher.loadScene(model.bytes, { format: model.format }, { onProgress });
     $('progress-text').textContent = `Reading ${model.name} for the view…`;
     try {
       object = await parseModel(model);
@@ -562,6 +569,9 @@ async function runSearch() {
     }
   }
 }
+
+/** What each of the scene load's steps ('scene steps') did, in order. */
+const SCENE_STEPS = ['reading the file', 'checking the voxel work', 'finding the connected parts', 'measuring the parts', 'checking the memory'];
 
 /** What a progress step counts, in the viewer's words. */
 const PROGRESS_WORDS = { parts: 'parts', windows: 'windows of a large part', candidates: 'vertices' };

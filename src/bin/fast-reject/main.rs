@@ -173,7 +173,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
             (None, None) => unreachable!("clap requires one of them"),
         };
         progress.phase("preparing the scene");
-        let scene = Scene::new(scene_mesh, &scene_options)
+        let scene = Scene::new_observed(scene_mesh, &scene_options, &mut progress)
             .map_err(|e| format!("scene '{}': {}", shown(&args.scene), described(&e)))?;
         let load = start.elapsed().as_secs_f64() * 1e3;
         progress.phase("searching");
