@@ -72,6 +72,19 @@ for (const scene of scenes) {
   console.error(`${scene}: done`);
 }
 
+// What a viewer of the threaded search would have seen, and the memory
+// against the module's address space: a bench that passes it fails.
+for (const r of rows) {
+  const { reports, steps, rising, longestSilenceMs } = r.threads.progress;
+  console.error(
+    `${r.scene}, threads in Chromium: ${reports} progress reports (${steps.join(', ')}), ` +
+      `${rising ? 'each only rising' : 'SOME FELL BACK'}, longest silence ${(longestSilenceMs / 1000).toFixed(1)} s of ` +
+      `${(r.threads.wallMs / 1000).toFixed(1)} s; peak wasm memory ${Math.round(r.threads.memoryBytes / 2 ** 20)} MiB ` +
+      `of ${Math.round(r.threads.info.memoryLimitBytes / 2 ** 20)} MiB`,
+  );
+  if (!rising || r.threads.memoryBytes > r.threads.info.memoryLimitBytes) process.exitCode = 1;
+}
+
 const mib = (bytes) => `${Math.round(bytes / 2 ** 20)}`;
 const ms = (v) => `${Math.round(v)}`;
 console.log('| scene | native 1 thread | native 2 threads | wasm plain, Node | wasm plain, Chromium | wasm threads (2), Chromium | plain Node / native 1 | plain / threads (Chromium) | peak wasm memory, plain / threads (MiB) | instances |');

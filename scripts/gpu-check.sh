@@ -7,10 +7,14 @@
 #                                     Vulkan loader's Debian packages
 #   bash DIR/gpu-check.sh run DIR OUT there: the CPU and GPU backends on
 #                                     every shared scene (same instances),
-#                                     then the bench on both, alternating,
-#                                     2 threads and all; logs in OUT
+#                                     the whole search with cpu, gpu and
+#                                     auto side by side (whole.txt), then
+#                                     the stages bench on both,
+#                                     alternating, 2 threads and all; logs
+#                                     in OUT
 #
-# FAST_REJECT_BENCH_RUNS (default 3) and GPU_CHECK_SCENES (names the bench
+# FAST_REJECT_BENCH_RUNS (default 3), GPU_CHECK_RUNS (whole searches,
+# default 5) and GPU_CHECK_SCENES (names the bench
 # takes, default all) shorten a run. GPU_CHECK_EXTRA="DIR ..." at pack time
 # copies more scene folders (scene.glb, template.glb, truth.json: a
 # generated building scene, where the GPU's work is largest) beside the
@@ -86,6 +90,8 @@ run)
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>/dev/null || true
   export FAST_REJECT_SHARED=$dir
   python3 "$dir/gpu-compare.py" "$dir/fast-reject" "$dir/scenes" | tee "$out/same.txt"
+  echo "== whole searches, cpu / gpu / auto on 2 threads"
+  python3 "$dir/gpu-compare.py" --time "$dir/fast-reject" "$dir/scenes" | tee "$out/whole.txt"
   bench() { # name backend threads [bench binary]
     # shellcheck disable=SC2086 # GPU_CHECK_SCENES is a list of names.
     FAST_REJECT_BENCH_RUNS=${FAST_REJECT_BENCH_RUNS:-3} RAYON_NUM_THREADS=$3 \
