@@ -130,18 +130,18 @@ export type Matrix4 = [
   [number, number, number, number],
 ];
 
-/** The native CLI's JSON (`fast-reject match --json`), plus typed arrays for drawing. */
+/** The native CLI's JSON (`fast-reject match --json`) with camelCase keys (`timingsMs`, `grid.voxelSize`), plus typed arrays for drawing. */
 export interface MatchReport {
   template: { center: [number, number, number]; radius: number };
   instances: Instance[];
   stages: LayerStats[];
   /** The voxel grid (null for curvature); `windows`: how many windows parts too large for one grid were searched in (0: none was). */
-  grid: { resolution: number; voxel_size: number; skin_voxels: number; windows: number } | null;
+  grid: { resolution: number; voxelSize: number; skinVoxels: number; windows: number } | null;
   /** The welded surface (curvature only, else null). */
   surface: { vertices: number; triangles: number } | null;
   /** The GPU the layers ran on (`matchGpu`), and why some went back to the CPU if any did; null when the search ran on the CPU only. */
   gpu: { adapter: string; fallback: string | null } | null;
-  timings_ms: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };
+  timingsMs: { load: number; voxelize: number; surface: number; template: number; match: number; group: number; total: number };
   /** x, y, z of every instance, best first. */
   instancePositions: Float64Array;
   /** The radius of the ball each instance occupies (r_k). */

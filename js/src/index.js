@@ -375,8 +375,10 @@ export class Scene extends Handle {
     const settings = plainOptions(options, 'match');
     const progress = new Progress(callbacks);
     try {
-      return searching(this, template, (scene, inner) =>
-        call(() => scene.match(inner, settings, progress.onLayer, progress.onProgress)),
+      return camelCaseKeys(
+        searching(this, template, (scene, inner) =>
+          call(() => scene.match(inner, settings, progress.onLayer, progress.onProgress)),
+        ),
       );
     } catch (error) {
       throw progress.explain(error);
@@ -395,15 +397,30 @@ export class Scene extends Handle {
     const settings = plainOptions(options, 'match');
     const progress = new Progress(callbacks);
     try {
-      return await searching(this, template, (scene, inner) =>
-        callAsync(() =>
-          scene.matchGpu(inner, settings, progress.onLayer, progress.onProgress, Boolean(allowSoftware)),
+      return camelCaseKeys(
+        await searching(this, template, (scene, inner) =>
+          callAsync(() =>
+            scene.matchGpu(inner, settings, progress.onLayer, progress.onProgress, Boolean(allowSoftware)),
+          ),
         ),
       );
     } catch (error) {
       throw progress.explain(error);
     }
   }
+}
+
+/**
+ * The module's report (the CLI's JSON shape, snake_case keys) with the
+ * package's casing, that of its options: `timingsMs`, `grid.voxelSize`.
+ * Keys are field names, never data; typed arrays pass as they are.
+ */
+function camelCaseKeys(value) {
+  if (Array.isArray(value)) return value.map(camelCaseKeys);
+  if (value === null || typeof value !== 'object' || ArrayBuffer.isView(value)) return value;
+  return Object.fromEntries(
+    Object.entries(value).map(([key, inner]) => [key.replace(/_([a-z])/g, (_, c) => c.toUpperCase()), camelCaseKeys(inner)]),
+  );
 }
 
 /** The search's callbacks, `{ onLayer, onProgress }`, from `observe`: a function (onLayer) or that object. */

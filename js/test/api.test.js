@@ -2,7 +2,9 @@
 // a catchable Error with a readable message, and the module keeps working
 // for the next call; freed handles refuse further use.
 import assert from 'node:assert/strict';
+import { execFileSync } from 'node:child_process';
 import { readFile } from 'node:fs/promises';
+import { fileURLToPath } from 'node:url';
 import { test } from 'node:test';
 
 import { CancelledError, Scene, Template, findRepeats, init, memoryBytes, optionDefaults } from '../../pkg/index.js';
@@ -281,4 +283,25 @@ test('loading a scene tells its steps, reading first, and a false from onProgres
   );
   assert.throws(() => Scene.fromBytes(sceneBytes, {}, { onProgress: 7 }), TypeError);
   Scene.fromBytes(sceneBytes).free();
+});
+
+test("the package's report is camelCase like its options; the bin's --json keeps the native CLI's keys", async () => {
+  await init();
+  const scene = Scene.fromBytes(sceneBytes, { resolution: 128 });
+  const template = Template.fromBytes(templateBytes);
+  const report = scene.match(template);
+  template.free();
+  scene.free();
+  const keys = (value) =>
+    value === null || typeof value !== 'object' || ArrayBuffer.isView(value)
+      ? []
+      : Object.entries(value).flatMap(([key, inner]) => (Array.isArray(value) ? keys(inner) : [key, ...keys(inner)]));
+  assert.deepEqual(keys(report).filter((key) => key.includes('_')), []);
+  assert.ok(report.grid.voxelSize > 0 && report.grid.skinVoxels > 0 && report.timingsMs.total > 0);
+  // The timings keep their order: the viewer lists them as they come.
+  assert.deepEqual(Object.keys(report.timingsMs), ['load', 'voxelize', 'surface', 'template', 'match', 'group', 'total']);
+  const bin = fileURLToPath(new URL('../../pkg/bin/fast-reject.js', import.meta.url));
+  const printed = JSON.parse(execFileSync(process.execPath, [bin, 'demo', '--json'], { encoding: 'utf8' }));
+  assert.ok(printed.timings_ms.total > 0 && printed.grid.voxel_size > 0 && printed.wasm.memory_bytes > 0);
+  assert.equal(printed.timingsMs, undefined);
 });

@@ -96,9 +96,9 @@ export async function find(sceneBytes: Uint8Array, templateBytes: ArrayBuffer): 
   const xyz: Float64Array = report.instancePositions;
   const first: number = report.instances[0]?.position[0] ?? xyz[0];
   // A curvature search has no grid, a voxel one no surface.
-  const candidates: number = report.grid?.skin_voxels ?? report.surface?.vertices ?? 0;
+  const candidates: number = report.grid?.skinVoxels ?? report.surface?.vertices ?? 0;
   const agreement: number | null = report.instances[0]?.score ?? null;
-  console.log(first, report.timings_ms.match, candidates, agreement);
+  console.log(first, report.timingsMs.match, candidates, agreement);
   scene.match(template, {}, { onProgress: (p: SearchProgress) => p.done <= p.total });
   // @ts-expect-error: a step is 'parts', 'windows' or 'candidates'
   const wrongStep: SearchProgress = { step: 'layers', done: 0, total: 1 };

@@ -749,7 +749,7 @@ function showResults(report, wallMs) {
   $('progress-text').textContent = `Done: ${count} match${count === 1 ? '' : 'es'}${more} in ${(wallMs / 1000).toFixed(2)} s.`;
   // The scene was read once, before the first search: its load time is
   // not this search's.
-  const searchMs = report.timings_ms.total - report.timings_ms.load;
+  const searchMs = report.timingsMs.total - report.timingsMs.load;
   $('total-time').textContent =
     `${searchMs.toFixed(0)} ms searching, ${wallMs.toFixed(0)} ms in all, ` +
     `${report.threads} thread${report.threads === 1 ? '' : 's'}` +
@@ -784,7 +784,7 @@ function showResults(report, wallMs) {
     list.append(item);
   });
   const timings = $('timing-table').tBodies[0];
-  for (const [stage, ms] of Object.entries(report.timings_ms)) {
+  for (const [stage, ms] of Object.entries(report.timingsMs)) {
     const row = document.createElement('tr');
     row.innerHTML = '<td></td><td></td>';
     row.cells[0].textContent = stage === 'load' ? 'load (once, with the scene)' : stage;

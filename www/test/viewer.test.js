@@ -567,9 +567,9 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     const report = await page.evaluate(() => globalThis.viewer.report);
     assertMatchesTruth(report, await truth(zooBunny), 'zoo-bunny, dropped template');
     // The readout leaves out the scene's load, paid once when it was opened.
-    const searching = (report.timings_ms.total - report.timings_ms.load).toFixed(0);
+    const searching = (report.timingsMs.total - report.timingsMs.load).toFixed(0);
     assert.match(await page.locator('#total-time').textContent(), new RegExp(`^${searching} ms searching`));
-    assert.ok(report.timings_ms.load > 0);
+    assert.ok(report.timingsMs.load > 0);
     // Each match is named after the glTF node it lies in, and drawn as the template at its pose.
     const names = await page.evaluate(() => globalThis.viewer.names);
     assert.equal(names.length, 4);

@@ -121,6 +121,15 @@ async function readMesh(path) {
   }
 }
 
+/** `value` with every object key in snake_case (`timingsMs` to `timings_ms`). */
+function snakeCaseKeys(value) {
+  if (Array.isArray(value)) return value.map(snakeCaseKeys);
+  if (value === null || typeof value !== 'object') return value;
+  return Object.fromEntries(
+    Object.entries(value).map(([key, inner]) => [key.replace(/[A-Z]/g, (c) => `_${c.toLowerCase()}`), snakeCaseKeys(inner)]),
+  );
+}
+
 /** The report as the native CLI prints it without --json. */
 function table(report, build) {
   const t = report.template;
@@ -128,7 +137,7 @@ function table(report, build) {
     `build: wasm ${build}, ${report.threads} thread(s)`,
     `template: centre (${t.center.map((v) => v.toFixed(4)).join(', ')}), radius ${t.radius.toFixed(4)}`,
     report.grid
-      ? `grid: ${report.grid.resolution} voxels on the longest side, voxel ${report.grid.voxel_size.toFixed(5)}, ${report.grid.skin_voxels} candidate points`
+      ? `grid: ${report.grid.resolution} voxels on the longest side, voxel ${report.grid.voxelSize.toFixed(5)}, ${report.grid.skinVoxels} candidate points`
       : `surface: ${report.surface.vertices} welded vertices (the candidate points), ${report.surface.triangles} triangles`,
     '',
   ];
@@ -142,7 +151,7 @@ function table(report, build) {
     const p = inst.position.map((v) => v.toFixed(4)).join(', ');
     lines.push(`  #${i + 1} at (${p})  distance ${inst.distance.toFixed(4)}${inst.score === null ? '' : `  score ${inst.score.toFixed(3)}`}  support ${inst.support}`);
   });
-  const tm = report.timings_ms;
+  const tm = report.timingsMs;
   lines.push(
     '',
     `time (ms): load ${tm.load.toFixed(1)}, voxelize/weld ${(tm.voxelize + tm.surface).toFixed(1)}, template ${tm.template.toFixed(1)}, match ${tm.match.toFixed(1)}, group ${tm.group.toFixed(1)}, total ${tm.total.toFixed(1)}`,
@@ -207,11 +216,12 @@ async function main(argv) {
   const report = scene.match(template, args.match);
   template.free();
   scene.free();
-  report.timings_ms.load += readMs;
-  report.timings_ms.total += readMs;
+  report.timingsMs.load += readMs;
+  report.timingsMs.total += readMs;
   if (args.json) {
     const { instancePositions, highlightRadius, threads, ...cliShape } = report;
-    await print(JSON.stringify({ ...cliShape, wasm: { build, threads, memory_bytes: memoryBytes() } }));
+    // The native CLI's JSON, snake_case as it writes it.
+    await print(JSON.stringify(snakeCaseKeys({ ...cliShape, wasm: { build, threads, memoryBytes: memoryBytes() } })));
   } else {
     await print(table(report, build));
   }

@@ -43,17 +43,22 @@ onmessage = async ({ data: job }) => {
       bytes(`/scenes/${job.scene}/template.glb`),
     ]);
     const start = performance.now();
-    const scene = Scene.fromBytes(sceneBytes, { resolution: job.resolution });
+    // Every progress report, with when it came: what a viewer would show.
+    const told = [];
+    const onProgress = ({ step, done, total }) => {
+      told.push({ step, done, total, at: performance.now() - start });
+    };
+    const scene = Scene.fromBytes(sceneBytes, { resolution: job.resolution }, { onProgress });
     const template = Template.fromBytes(templateBytes);
     let layers = 0;
-    const count = () => {
+    const onLayer = () => {
       layers += 1;
     };
     // `gpu`: the layers on WebGPU, the software adapter allowed.
     const options = job.options ?? {};
     const report = job.gpu
-      ? await scene.matchGpu(template, options, count, { allowSoftware: true })
-      : scene.match(template, options, count);
+      ? await scene.matchGpu(template, options, { onLayer, onProgress }, { allowSoftware: true })
+      : scene.match(template, options, { onLayer, onProgress });
     const wallMs = performance.now() - start;
     template.free();
     scene.free();
@@ -66,9 +71,26 @@ onmessage = async ({ data: job }) => {
       instances: report.instances,
       stages: report.stages.map(({ ms, ...counts }) => counts),
       gpu: report.gpu,
-      timings: report.timings_ms,
+      timings: report.timingsMs,
+      progress: progressSummary(told, wallMs),
     });
   } catch (error) {
     postMessage({ error: String(error?.stack ?? error) });
   }
 };
+
+/**
+ * What the progress reports showed: their steps in order, whether each
+ * step's count only rose, and the longest time nothing was told (from the
+ * start, between reports, to the end).
+ */
+function progressSummary(told, wallMs) {
+  const steps = [...new Set(told.map((p) => p.step))];
+  const rising = steps.every((step) => {
+    const mine = told.filter((p) => p.step === step);
+    return mine.every((p, i) => p.done <= p.total && (i === 0 || p.done > mine[i - 1].done));
+  });
+  const times = [0, ...told.map((p) => p.at), wallMs];
+  const longestSilenceMs = Math.max(...times.slice(1).map((t, i) => t - times[i]));
+  return { reports: told.length, steps, rising, longestSilenceMs };
+}
