@@ -32,6 +32,10 @@ const state = {
   repeats: null,
   /** Their finding's last progress, `{done, total}` steps, or null. */
   repeatsProgress: null,
+  /** A search with more than this many seconds left is announced, with a Cancel. */
+  longSearchSeconds: 30,
+  /** The text of the running search's long-search notice, if one was shown. */
+  longNotice: null,
 };
 
 const view = new View($('viewport'), {
@@ -504,6 +508,7 @@ async function runSearch() {
   // With several parts (windows, vertex rounds) the bar follows them, and
   // the time left is read from their pace; with one, it follows the layers.
   const firstSeen = new Map();
+  state.longNotice = null;
   state.progress = null;
   try {
     const onLayer = (stats) => {
@@ -533,10 +538,21 @@ async function runSearch() {
       $('progress-bar').value = Math.min(done / total, 1);
       const pace = done > first.done ? (now - first.at) / (done - first.done) : null;
       const left = pace && done < total ? `, about ${formatSeconds((pace * (total - done)) / 1000)} left` : '';
+      // Said once, as soon as the pace is known: a sphere placed by
+      // mistake on a whole building would otherwise run for minutes.
+      const secondsLeft = pace ? (pace * (total - done)) / 1000 : 0;
+      if (!state.longNotice && now - first.at >= LONG_SEARCH_PACE_MS && secondsLeft > state.longSearchSeconds) {
+        state.longNotice =
+          `This search will take about ${formatSeconds(secondsLeft)} more: ${(total - done).toLocaleString()} ` +
+          `${PROGRESS_WORDS[what] ?? what} of the scene are left to search. A smaller sphere, or a template of ` +
+          'fewer parts, searches less.';
+        showMessage(state.longNotice, 'info', { label: 'Cancel the search', run: cancelSearch });
+      }
       showStep(`Searched ${done.toLocaleString()} of ${total.toLocaleString()} ${PROGRESS_WORDS[what] ?? what}${left}`);
     };
     const report = await matcher.match(template, options, { onLayer, onProgress });
     if (generation !== state.generation) return;
+    dismissLongNotice();
     state.report = report;
     $('progress-bar').value = 1;
     showResults(report, performance.now() - start);
@@ -570,6 +586,9 @@ async function runSearch() {
   }
 }
 
+/** How long the pace is watched before the time left is trusted. */
+const LONG_SEARCH_PACE_MS = 1500;
+
 /** What each of the scene load's steps ('scene steps') did, in order. */
 const SCENE_STEPS = ['reading the file', 'checking the voxel work', 'finding the connected parts', 'measuring the parts', 'checking the memory'];
 
@@ -581,8 +600,15 @@ function formatSeconds(seconds) {
   return seconds < 120 ? `${Math.max(1, Math.round(seconds))} s` : `${Math.round(seconds / 60)} min`;
 }
 
+/** The notice of a long search is stale once it ends. */
+function dismissLongNotice() {
+  if (state.longNotice && state.lastMessage === state.longNotice) dismissMessage();
+  state.longNotice = null;
+}
+
 function cancelSearch() {
   if (!state.running) return;
+  dismissLongNotice();
   state.running = false;
   state.generation += 1;
   matcher.cancel();
@@ -933,6 +959,10 @@ globalThis.viewer = {
   /** The last search's progress as last reported: `{step, done, total}`, or null. */
   get progress() {
     return state.progress;
+  },
+  /** Searches with more seconds left than this are announced (tests lower it). */
+  set longSearchSeconds(seconds) {
+    state.longSearchSeconds = seconds;
   },
   get selection() {
     return state.selection;

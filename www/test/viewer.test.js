@@ -220,17 +220,26 @@ for (const isolation of [false, true]) {
       await waitForStatus(page, 'done');
       await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
       await waitForStatus(page, 'ready');
-      // Curvature on the whole zoo takes tens of seconds.
+      // Curvature on the whole zoo takes tens of seconds; announced as
+      // long past 2 s left, once its pace is known.
+      await page.evaluate(() => {
+        globalThis.viewer.longSearchSeconds = 2;
+      });
       await page.selectOption('#descriptor', 'curvature');
       await page.setInputFiles('#template-input', resolve(zooBunny, 'template.glb'));
       await waitForStatus(page, 'searching');
-      await page.waitForTimeout(1500);
+      await page.waitForFunction(() => /^This search will take about .* more: [\d,]+ vertices/.test(globalThis.viewer.lastMessage ?? ''), null, {
+        timeout: 60_000,
+        polling: 100,
+      });
       assert.equal(await page.evaluate(() => globalThis.viewer.status), 'searching');
+      assert.equal(await page.locator('#message-action').textContent(), 'Cancel the search');
       // The search worker, and with threads the pool's workers too.
       const running = page.workers();
       assert.ok(running.length >= (isolation ? 3 : 1), `${running.length} workers run the search`);
       const closed = Promise.all(running.map((worker) => new Promise((done) => worker.once('close', done))));
-      await page.click('#cancel-button');
+      // In one mode the notice's own button cancels, in the other the bar's.
+      await page.click(isolation ? '#message-action' : '#cancel-button');
       await waitForStatus(page, 'cancelled', 2000);
       // Every worker that ran the search is gone, not left computing.
       await Promise.race([
