@@ -104,8 +104,55 @@ pub fn ceil(x: f64) -> f64 {
     if t < x { t + 1.0 } else { t }
 }
 
+/// The smaller of two numbers that are not NaN. `f64::min` keeps the
+/// other operand for a NaN, which WebAssembly's `f64.min` does not, so
+/// there it is a library call: several per cent of a search in the voxel
+/// loops. Without NaN both give the same.
+#[inline]
+pub fn min_of(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+/// The larger of two numbers that are not NaN (see [`min_of`]).
+#[inline]
+pub fn max_of(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
+}
+
+/// [`min_of`] per coordinate.
+#[inline]
+pub fn min_each(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(min_of(a.x, b.x), min_of(a.y, b.y), min_of(a.z, b.z))
+}
+
+/// [`max_of`] per coordinate.
+#[inline]
+pub fn max_each(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(max_of(a.x, b.x), max_of(a.y, b.y), max_of(a.z, b.z))
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn min_of_and_max_of_match_std_without_nan() {
+        use super::{max_of, min_of};
+        let values = [
+            -3.5,
+            -0.0,
+            0.0,
+            1e-300,
+            2.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for a in values {
+            for b in values {
+                assert_eq!(min_of(a, b), a.min(b), "{a} {b}");
+                assert_eq!(max_of(a, b), a.max(b), "{a} {b}");
+            }
+        }
+    }
+
     #[test]
     fn floor_and_ceil_match_std() {
         for x in [

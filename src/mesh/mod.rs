@@ -339,10 +339,16 @@ impl F32Box {
         max: [f32::NEG_INFINITY; 3],
     };
 
+    /// Widens the box to `p`, whose coordinates are finite (compared, not
+    /// `f32::min`: a library call in WebAssembly).
     fn add(&mut self, p: [f32; 3]) {
         for a in 0..3 {
-            self.min[a] = self.min[a].min(p[a]);
-            self.max[a] = self.max[a].max(p[a]);
+            if p[a] < self.min[a] {
+                self.min[a] = p[a];
+            }
+            if p[a] > self.max[a] {
+                self.max[a] = p[a];
+            }
         }
     }
 

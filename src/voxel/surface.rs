@@ -13,7 +13,7 @@
 
 use super::grid::{AtomicGrid, Grid, GridSpec, Rows};
 use crate::exec::Threads;
-use crate::math::{Vec3, dominant_axis};
+use crate::math::{Vec3, dominant_axis, max_each, max_of, min_each, min_of};
 use crate::mesh::TriMesh;
 
 /// The voxels touched by the mesh's surface.
@@ -41,8 +41,8 @@ pub(crate) fn voxelize_triangles(
     for &t in triangles {
         for p in mesh.corners(t as usize) {
             let q = spec.to_grid(p);
-            lo = [lo[0].min(q.y), lo[1].min(q.z)];
-            hi = [hi[0].max(q.y), hi[1].max(q.z)];
+            lo = [min_of(lo[0], q.y), min_of(lo[1], q.z)];
+            hi = [max_of(hi[0], q.y), max_of(hi[1], q.z)];
         }
     }
     let rows = match triangles.is_empty() {
@@ -61,15 +61,15 @@ pub(crate) fn for_each_touched_voxel(
     dims: [usize; 3],
     mut visit: impl FnMut(usize, usize, usize),
 ) {
-    let lo_p = tri[0].min(tri[1]).min(tri[2]);
-    let hi_p = tri[0].max(tri[1]).max(tri[2]);
+    let lo_p = min_each(min_each(tri[0], tri[1]), tri[2]);
+    let hi_p = max_each(max_each(tri[0], tri[1]), tri[2]);
     if (0..3).any(|a| hi_p[a] < 0.0 || lo_p[a] >= dims[a] as f64) {
         return;
     }
     // Truncation is floor here: mesh points never have negative grid
     // coordinates (the grid is padded around them), and `max(0.0)` guards
     // callers that pass points outside.
-    let clamp = |v: f64, axis: usize| (v.max(0.0) as usize).min(dims[axis] - 1);
+    let clamp = |v: f64, axis: usize| (max_of(v, 0.0) as usize).min(dims[axis] - 1);
     let lo = [0, 1, 2].map(|a| clamp(lo_p[a], a));
     // A voxel that the triangle's box only touches on its far face is not met.
     let hi = [0, 1, 2].map(|a| clamp(hi_p[a].ceil() - 1.0, a).max(lo[a]));
@@ -147,8 +147,8 @@ pub(crate) fn for_each_touched_voxel(
         }
         let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
         for q in &piece.p[..piece.n] {
-            vmin = vmin.min(q[1]);
-            vmax = vmax.max(q[1]);
+            vmin = min_of(vmin, q[1]);
+            vmax = max_of(vmax, q[1]);
         }
         // The first column whose upper line reaches the strip (a strip
         // that only touches that line yields the same degenerate piece as
@@ -289,8 +289,8 @@ impl Chain {
     #[inline]
     fn depths_between(&mut self, c0: f64, top: Option<f64>, range: &mut (f64, f64)) {
         let mut widen = |d: f64| {
-            range.0 = range.0.min(d);
-            range.1 = range.1.max(d);
+            range.0 = min_of(range.0, d);
+            range.1 = max_of(range.1, d);
         };
         if let Some(d) = self.crossing(c0) {
             widen(d);
@@ -365,9 +365,9 @@ impl Plane {
                 // a u + b v + c >= margin, for v.
                 let rest = INNER_MARGIN * (a.abs() + b.abs()) - a * u - c;
                 if b > 0.0 {
-                    lo = lo.max(rest / b);
+                    lo = max_of(lo, rest / b);
                 } else if b < 0.0 {
-                    hi = hi.min(rest / b);
+                    hi = min_of(hi, rest / b);
                 } else if rest > 0.0 {
                     return None;
                 }
@@ -376,8 +376,8 @@ impl Plane {
         if !(lo.is_finite() && hi.is_finite()) || hi - lo < 1.0 {
             return None;
         }
-        let first = lo.ceil().max(self.v_cells.0 as f64);
-        let last = (hi.floor() - 1.0).min(self.v_cells.1 as f64);
+        let first = max_of(lo.ceil(), self.v_cells.0 as f64);
+        let last = min_of(hi.floor() - 1.0, self.v_cells.1 as f64);
         (first <= last).then_some((first as usize, last as usize))
     }
 
@@ -386,7 +386,10 @@ impl Plane {
     fn depth_range(&self, cu: usize, cv: usize) -> (f64, f64) {
         let d = self.depth0 + self.slope_u * cu as f64 + self.slope_v * cv as f64;
         let (su, sv) = (self.slope_u, self.slope_v);
-        (d + su.min(0.0) + sv.min(0.0), d + su.max(0.0) + sv.max(0.0))
+        (
+            d + min_of(su, 0.0) + min_of(sv, 0.0),
+            d + max_of(su, 0.0) + max_of(sv, 0.0),
+        )
     }
 }
 
@@ -427,7 +430,7 @@ impl OverlapTest {
             for i in 0..3 {
                 let (p, q) = (tri[i], tri[(i + 1) % 3]);
                 let en = [-(q[b] - p[b]) * sign, (q[a] - p[a]) * sign];
-                let d = -(en[0] * p[a] + en[1] * p[b]) + en[0].max(0.0) + en[1].max(0.0);
+                let d = -(en[0] * p[a] + en[1] * p[b]) + max_of(en[0], 0.0) + max_of(en[1], 0.0);
                 e[i] = (en, d);
             }
         }
@@ -491,8 +494,8 @@ impl Polygon {
         let mut a = pts[pts.len() - 1];
         for &b in pts {
             area2 += a[0] * b[1] - a[1] * b[0];
-            dmin = dmin.min(b[2]);
-            dmax = dmax.max(b[2]);
+            dmin = min_of(dmin, b[2]);
+            dmax = max_of(dmax, b[2]);
             a = b;
         }
         (area2 != 0.0).then_some((dmin, dmax))

@@ -46,7 +46,7 @@ use std::sync::Mutex;
 
 use super::grid::{AtomicGrid, Grid, GridSpec, Rows};
 use crate::exec::Threads;
-use crate::math::{Vec3, floor};
+use crate::math::{Vec3, floor, max_each, min_each};
 use crate::mesh::TriMesh;
 use columns::{Columns, DENSE_WORDS_PER_CROSSING, DENSE_WORDS_PER_VOTE, vote_sparse};
 use parity::{parity_along, vote};
@@ -146,8 +146,8 @@ fn fill_shell(
         .collect();
     let (mut lo_p, mut hi_p) = (corners[0][0], corners[0][0]);
     for c in corners.iter().flatten() {
-        lo_p = lo_p.min(*c);
-        hi_p = hi_p.max(*c);
+        lo_p = min_each(lo_p, *c);
+        hi_p = max_each(hi_p, *c);
     }
     let dims = spec.dims;
     let lo = [0, 1, 2].map(|a| ((floor(lo_p[a]) - 1.0).max(0.0) as usize).min(dims[a] - 1));

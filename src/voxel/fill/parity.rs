@@ -2,7 +2,7 @@
 //! watertight rasterization and prefix XOR, and the three-axis vote.
 
 use super::Block;
-use crate::math::{Vec3, ceil, floor};
+use crate::math::{Vec3, ceil, floor, max_of, min_of};
 use crate::voxel::grid::AtomicGrid;
 
 /// The parity of the crossings along `axis` of every column of `block`:
@@ -36,20 +36,20 @@ pub(super) fn for_each_crossing<const AXIS: usize>(
     let (u, v) = ((AXIS + 1) % 3, (AXIS + 2) % 3);
     // Column (cu, cv) runs through (cu + 0.5, cv + 0.5); most triangles of a
     // fine mesh contain no column centre at all, so find that out first.
-    let min_u = tri[0][u].min(tri[1][u]).min(tri[2][u]);
-    let max_u = tri[0][u].max(tri[1][u]).max(tri[2][u]);
+    let min_u = min_of(min_of(tri[0][u], tri[1][u]), tri[2][u]);
+    let max_u = max_of(max_of(tri[0][u], tri[1][u]), tri[2][u]);
     let (u0, u1) = (
-        ceil(min_u - 0.5).max(block.lo[u] as f64),
-        floor(max_u - 0.5).min(block.hi[u] as f64),
+        max_of(ceil(min_u - 0.5), block.lo[u] as f64),
+        min_of(floor(max_u - 0.5), block.hi[u] as f64),
     );
     if u1 < u0 {
         return;
     }
-    let min_v = tri[0][v].min(tri[1][v]).min(tri[2][v]);
-    let max_v = tri[0][v].max(tri[1][v]).max(tri[2][v]);
+    let min_v = min_of(min_of(tri[0][v], tri[1][v]), tri[2][v]);
+    let max_v = max_of(max_of(tri[0][v], tri[1][v]), tri[2][v]);
     let (v0, v1) = (
-        ceil(min_v - 0.5).max(block.lo[v] as f64),
-        floor(max_v - 0.5).min(block.hi[v] as f64),
+        max_of(ceil(min_v - 0.5), block.lo[v] as f64),
+        min_of(floor(max_v - 0.5), block.hi[v] as f64),
     );
     if v1 < v0 {
         return;
