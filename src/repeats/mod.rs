@@ -98,7 +98,7 @@ pub fn find_repeats(mesh: &TriMesh, backend: Threads) -> Vec<Family> {
 
 /// [`find_repeats`], telling `observer` as each of its
 /// [`REPEAT_STEPS`] ends ([`Progress::REPEATS`]); a `Break` from it stops
-/// the work with [`Error::Cancelled`].
+/// the work with [`Error::Cancelled`](crate::Error::Cancelled).
 pub fn find_repeats_observed(
     mesh: &TriMesh,
     backend: Threads,
