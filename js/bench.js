@@ -73,7 +73,8 @@ for (const scene of scenes) {
 }
 
 // What a viewer of the threaded search would have seen, and the memory
-// against the module's address space: a bench that passes it fails.
+// against the module's limit (a search that needs more fails with a
+// memory error of its own): a count that fell fails the bench.
 for (const r of rows) {
   const { reports, steps, rising, longestSilenceMs } = r.threads.progress;
   console.error(
@@ -82,7 +83,7 @@ for (const r of rows) {
       `${(r.threads.wallMs / 1000).toFixed(1)} s; peak wasm memory ${Math.round(r.threads.memoryBytes / 2 ** 20)} MiB ` +
       `of ${Math.round(r.threads.info.memoryLimitBytes / 2 ** 20)} MiB`,
   );
-  if (!rising || r.threads.memoryBytes > r.threads.info.memoryLimitBytes) process.exitCode = 1;
+  if (!rising) process.exitCode = 1;
 }
 
 const mib = (bytes) => `${Math.round(bytes / 2 ** 20)}`;

@@ -136,10 +136,15 @@ impl<'a> Steps<'a> {
             done: self.done,
             total: self.total,
         };
-        match self.observer.on_progress(&progress) {
-            ControlFlow::Continue(()) => Ok(()),
-            ControlFlow::Break(()) => Err(Error::Cancelled),
-        }
+        go_on(self.observer.on_progress(&progress))
+    }
+}
+
+/// An observer's answer as the search's: a `Break` is [`Error::Cancelled`].
+pub(crate) fn go_on(flow: ControlFlow<()>) -> Result<()> {
+    match flow {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(Error::Cancelled),
     }
 }
 
@@ -259,10 +264,7 @@ pub async fn run_cascade(
     let mut report = |s: LayerStats| {
         let flow = observer.on_layer(&s);
         stats.push(s);
-        match flow {
-            ControlFlow::Continue(()) => Ok(()),
-            ControlFlow::Break(()) => Err(Error::Cancelled),
-        }
+        go_on(flow)
     };
     let mut survivors: Vec<Survivor> = candidates
         .iter()

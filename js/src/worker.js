@@ -225,23 +225,17 @@ export class SearchWorker {
    */
   loadScene(bytes, options = {}, { signal, onProgress } = {}) {
     let scene;
-    try {
-      if (onProgress !== undefined && typeof onProgress !== 'function') {
-        throw new TypeError('fast-reject: onProgress must be a function');
-      }
-      scene = { bytes: asBytes(bytes, 'scene').slice(), options: plainOptions(options, 'scene') };
-      if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
-    } catch (error) {
-      return Promise.reject(error);
-    }
-    const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
-    signal?.addEventListener('abort', abort, { once: true });
-    return this.#request({ type: 'load', ...scene }, { onProgress })
-      .then((reply) => {
-        this.#scene = scene;
-        return reply.scene;
-      })
-      .finally(() => signal?.removeEventListener('abort', abort));
+    return this.#controlled(
+      () => {
+        scene = { bytes: asBytes(bytes, 'scene').slice(), options: plainOptions(options, 'scene') };
+        return { type: 'load', ...scene };
+      },
+      signal,
+      { onProgress },
+    ).then((reply) => {
+      this.#scene = scene;
+      return reply.scene;
+    });
   }
 
   /**
@@ -268,24 +262,11 @@ export class SearchWorker {
    * A cancelled search rejects with a `CancelledError`.
    */
   match(template, options = {}, { onLayer, onProgress, signal } = {}) {
-    let spec;
-    try {
-      for (const [name, callback] of [['onLayer', onLayer], ['onProgress', onProgress]]) {
-        if (callback !== undefined && typeof callback !== 'function') {
-          throw new TypeError(`fast-reject: ${name} must be a function`);
-        }
-      }
-      spec = templateSpec(template);
-      options = plainOptions(options, 'match');
-      if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
-    } catch (error) {
-      return Promise.reject(error);
-    }
-    const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
-    signal?.addEventListener('abort', abort, { once: true });
-    return this.#request({ type: 'match', template: spec, options }, { onLayer, onProgress })
-      .then((reply) => reply.report)
-      .finally(() => signal?.removeEventListener('abort', abort));
+    return this.#controlled(
+      () => ({ type: 'match', template: templateSpec(template), options: plainOptions(options, 'match') }),
+      signal,
+      { onLayer, onProgress },
+    ).then((reply) => reply.report);
   }
 
   /**
@@ -296,21 +277,34 @@ export class SearchWorker {
    * AbortSignal, cancels: the promise rejects with a `CancelledError`.
    */
   findRepeats(bytes, options = {}, { signal, onProgress } = {}) {
-    let request;
+    return this.#controlled(
+      () => ({ type: 'repeats', bytes: asBytes(bytes, 'scene'), options: plainOptions(options, 'repeats') }),
+      signal,
+      { onProgress },
+    ).then((reply) => reply.report);
+  }
+
+  /**
+   * A caller's request that `signal` can cancel, its `callbacks` heard:
+   * the callbacks are checked, then the message is made (`makeMessage`
+   * throws on bad input), then the signal; any of these rejects at once.
+   */
+  #controlled(makeMessage, signal, callbacks) {
+    let message;
     try {
-      if (onProgress !== undefined && typeof onProgress !== 'function') {
-        throw new TypeError('fast-reject: onProgress must be a function');
+      for (const [name, callback] of Object.entries(callbacks)) {
+        if (callback !== undefined && typeof callback !== 'function') {
+          throw new TypeError(`fast-reject: ${name} must be a function`);
+        }
       }
-      request = { type: 'repeats', bytes: asBytes(bytes, 'scene'), options: plainOptions(options, 'repeats') };
+      message = makeMessage();
       if (signal?.aborted) throw new CancelledError(undefined, { cause: signal.reason });
     } catch (error) {
       return Promise.reject(error);
     }
     const abort = () => this.#cancel(new CancelledError(undefined, { cause: signal.reason }));
     signal?.addEventListener('abort', abort, { once: true });
-    return this.#request(request, { onProgress })
-      .then((reply) => reply.report)
-      .finally(() => signal?.removeEventListener('abort', abort));
+    return this.#request(message, callbacks).finally(() => signal?.removeEventListener('abort', abort));
   }
 
   /** Stops the running request and every queued one (they reject with a `CancelledError`); the worker restarts with the scene. */

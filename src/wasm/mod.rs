@@ -21,7 +21,7 @@ use std::sync::{Mutex, Once};
 use js_sys::{Float64Array, Function, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
-use crate::cascade::{LayerStats, Observer, Progress};
+use crate::cascade::{LayerStats, Observer, Progress, go_on};
 use crate::clock::{now_ms, set_clock};
 use crate::error::{Error, FileText, Format};
 use crate::exec::Threads;
@@ -303,10 +303,7 @@ impl CountedSteps {
             done: self.before,
             total: self.total,
         };
-        match self.observer.on_progress(&progress) {
-            ControlFlow::Continue(()) => Ok(()),
-            ControlFlow::Break(()) => Err(self.error(Error::Cancelled)),
-        }
+        go_on(self.observer.on_progress(&progress)).map_err(|e| self.error(e))
     }
 
     /// `error` for the page: a cancel says what the callback threw.

@@ -10,7 +10,7 @@ use super::waves::{CPU_WAVE_PARTS, Found, plan_waves, share_cpu_wave_time, share
 use super::windows::{Window, part_windows};
 use super::work::{PROBE_FROM, probe, too_much_work, work as part_work};
 use crate::budget::{Budget, Item};
-use crate::cascade::{LayerStats, Observer, Progress, finished};
+use crate::cascade::{LayerStats, Observer, Progress, finished, go_on};
 use crate::clock::now_ms;
 use crate::descriptor::{LayerDevice, LocalFuture, WaveQueue, run_together};
 use crate::error::{Error, Result};
@@ -502,10 +502,7 @@ fn check_part_volume(
 
 /// Tells `observer` how far the search has come; a `Break` cancels it.
 fn report_progress(observer: &RefCell<&mut dyn Observer>, progress: &Progress) -> Result<()> {
-    match observer.borrow_mut().on_progress(progress) {
-        std::ops::ControlFlow::Continue(()) => Ok(()),
-        std::ops::ControlFlow::Break(()) => Err(Error::Cancelled),
-    }
+    go_on(observer.borrow_mut().on_progress(progress))
 }
 
 /// What a part searched in a CPU wave tells the calling thread.
