@@ -13,6 +13,10 @@
       the hostile inputs of scripts/hostile-sweep.py, under 2 GiB and 20 s
   python3 scripts/bench.py wasm
       native against wasm in Node and headless Chromium (scripts/bench-wasm.sh)
+  python3 scripts/bench.py frames
+      the viewer's full and light frames on zoo-bunny and the generated
+      buildings, headless Chromium on software GL (www/bench-frames.js;
+      run `scale` first for the buildings)
   python3 scripts/bench.py update docs/BENCHMARKS.md [--only WORD]
       reruns every table between `<!-- bench: ARGS -->` and `<!-- /bench -->`
       (ARGS as above) and writes it back in place
@@ -108,7 +112,7 @@ def header(argv):
                             text=True).stdout.strip()
     # What is built and measured: the docs and scripts being edited are not.
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "src", "js", "build.rs",
-                            "Cargo.toml", "Cargo.lock"], cwd=ROOT,
+                            "Cargo.toml", "Cargo.lock", "www/src"], cwd=ROOT,
                            capture_output=True, text=True).stdout.strip()
     day = datetime.date.today().isoformat()
     print(f"`python3 scripts/bench.py {' '.join(argv)}` · {day} · {commit}{'+changes' if dirty else ''} · "
@@ -248,6 +252,12 @@ def wasm(a):
     print(done.stdout.strip())
 
 
+def frames(a):
+    done = subprocess.run(["node", ROOT / "www/bench-frames.js"], cwd=ROOT, stdout=subprocess.PIPE, text=True,
+                          check=True)
+    print(done.stdout.strip())
+
+
 def update(a):
     """Reruns each block in turn and writes the file after each, so that a
     block that fails (a missing browser, say) keeps its old table and costs
@@ -294,13 +304,15 @@ def main(argv):
     s = sub.add_parser("hostile")
     s.add_argument("--keep", default=str(ROOT / "target/bench-inputs"))
     sub.add_parser("wasm")
+    sub.add_parser("frames")
     s = sub.add_parser("update")
     s.add_argument("file")
     s.add_argument("--only")
     a = p.parse_args(argv)
     if a.what != "update":
         header(argv)
-    {"scores": scores, "stages": stages, "scale": scale, "hostile": hostile, "wasm": wasm, "update": update}[a.what](a)
+    {"scores": scores, "stages": stages, "scale": scale, "hostile": hostile, "wasm": wasm, "frames": frames,
+     "update": update}[a.what](a)
 
 
 if __name__ == "__main__":

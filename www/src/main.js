@@ -1010,6 +1010,22 @@ globalThis.viewer = {
     return view.target;
   },
   project: (point) => view.project(point),
+  /** The last timed frames, `{ at, light, ms, triangles }` each (light: drawn while the camera moved). */
+  get frameLog() {
+    return view.frameLog;
+  },
+  /** Whether moving frames are drawn light (the model is heavy here), and their triangle budget. */
+  get navigation() {
+    return view.navigation;
+  },
+  /** When a model counts as heavy and what its light frames may take (tests lower them): `{ heavyFrameMs, lightFrameMs, minTriangles }`. */
+  set navigationLimits(limits) {
+    view.navigationLimits = limits;
+  },
+  /** Whether the view stands still with the whole model drawn. */
+  get settled() {
+    return view.settled;
+  },
   /** Hides the message and forgets it. */
   dismissMessage,
   setSelectionRadius,

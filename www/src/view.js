@@ -4,7 +4,8 @@
 // selection sphere, picking, names, framing, flights, and the ways to see
 // matches inside an assembly: x-ray, isolate, a cut-away in front of the
 // point orbited, and screen markers that keep the smallest match in sight.
-// It renders on demand, not every frame.
+// It renders on demand, not every frame, and draws a heavy model lighter
+// while the camera moves (navigation.js).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
@@ -12,6 +13,8 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
+
+import { LightNavigation } from './navigation.js';
 
 /** Matches the shader can colour at once (a texture row of balls). */
 export const MAX_HIGHLIGHTS = 2048;
@@ -32,6 +35,14 @@ const CUT_MARGIN = 1.15;
  * where the pose or the meshing is off by a little.
  */
 const BOX_MARGIN = 0.03;
+/** A heavy model is drawn full again once the camera has stood still this long (ms). */
+const SETTLE_MS = 250;
+/** The orbit's damping per 60th of a second: applied per elapsed time, so that slow frames do not drag the glide on. */
+const DAMPING = 0.05;
+/** A light frame is drawn at this share of the canvas's pixels in each direction (then scaled up). */
+const LIGHT_RESOLUTION = 0.5;
+/** Frames kept in the frame log. */
+const FRAME_LOG = 1000;
 
 /** Parses mesh bytes into a three.js object in file coordinates (as the package reads them). */
 export async function parseModel({ name, format, bytes }) {
@@ -111,6 +122,19 @@ export class View {
   /** Clips what lies in front of the point orbited (the cut-away). */
   #cut = new THREE.Plane();
   #markers;
+  /** The heavy model's lighter drawing while the camera moves (null without a model). */
+  #navigation = null;
+  /** Limits set on the view, kept for the next model's light navigation. */
+  #navigationLimits = {};
+  /** When the camera last moved (performance.now()). */
+  #movedAt = -Infinity;
+  #settleTimer = 0;
+  /** Whether a full frame is due once the camera has stood still SETTLE_MS. */
+  #settlePending = false;
+  /** When the last frame was drawn (performance.now()), for the damping. */
+  #drawnAt = 0;
+  /** The last timed frames: `{ at, light, ms, triangles }`. */
+  #frameLog = [];
 
   /**
    * `onPick(point)` gets the surface point under a click (not a drag, not
@@ -118,12 +142,13 @@ export class View {
    * double-click.
    */
   constructor(container, { onPick = () => {}, onFocus = () => {}, onWheelRadius = () => {} } = {}) {
-    const renderer = new THREE.WebGLRenderer({ antialias: true });
+    // Multisampling costs a software rasterizer four to six times the frame.
+    const renderer = new THREE.WebGLRenderer({ antialias: hardwareWebgl() });
     renderer.localClippingEnabled = true;
-    renderer.setPixelRatio(Math.min(globalThis.devicePixelRatio ?? 1, 2));
     renderer.toneMapping = THREE.NeutralToneMapping;
     container.append(renderer.domElement);
     this.#renderer = renderer;
+    this.#setResolution(1);
 
     this.#scene.background = new THREE.Color(0x20242b);
     const pmrem = new THREE.PMREMGenerator(renderer);
@@ -187,6 +212,7 @@ export class View {
     this.#camera.up.set(0, this.#up === 'y' ? 1 : 0, this.#up === 'z' ? 1 : 0);
     this.#controls = new OrbitControls(this.#camera, this.#renderer.domElement);
     this.#controls.enableDamping = true;
+    this.#controls.dampingFactor = DAMPING;
     this.#controls.addEventListener('change', () => this.requestRender());
   }
 
@@ -224,6 +250,9 @@ export class View {
       this.#scene.remove(this.#root);
       this.#root.traverse((node) => node.geometry?.dispose());
     }
+    this.#navigation?.dispose();
+    this.#navigation = new LightNavigation(object, this.#material, this.#scene);
+    Object.assign(this.#navigation.limits, this.#navigationLimits);
     object.traverse((node) => {
       if (node.isMesh) node.material = this.#material;
       else if (node.isPoints || node.isLine) node.visible = false;
@@ -290,6 +319,7 @@ export class View {
     uniforms.focusIndex.value = focus;
     this.#matchPoints = Float64Array.from(positions.slice(0, 3 * count));
     this.#matchRadius = radius;
+    this.#navigation?.setMatches(this.#matchPoints, radius);
     placeMarkers(this.#markers, this.#matchPoints, focus);
     this.requestRender();
     return count;
@@ -409,14 +439,26 @@ export class View {
    * read whether a match can be seen from here. With `spread` > 0, each
    * point gives the colours of the square of pixels within `spread` of its
    * own, as a part a few pixels wide may leave its centre's pixel to what
-   * lies beside it.
+   * lies beside it. With `light`, the frame is the light one drawn while
+   * the camera moves (of a heavy model; else the full one).
    */
-  coloursAt(points, { spread = 0 } = {}) {
+  coloursAt(points, { spread = 0, light = false } = {}) {
     const hidden = [this.#ghosts, this.#markers, this.#selection].filter((o) => o.visible);
     for (const o of hidden) o.visible = false;
+    this.#setResolution(1);
     this.#camera.updateMatrixWorld();
     if (this.#cutaway) this.#placeCut();
+    const lighter = light && this.#navigation?.mesh ? this.#navigation : null;
+    if (lighter) {
+      lighter.prepareFrame();
+      this.#root.visible = false;
+      lighter.mesh.visible = true;
+    }
     this.#renderer.render(this.#scene, this.#camera);
+    if (lighter) {
+      lighter.mesh.visible = false;
+      this.#root.visible = true;
+    }
     for (const o of hidden) o.visible = true;
     const canvas = this.#renderer.domElement;
     const rect = canvas.getBoundingClientRect();
@@ -607,10 +649,122 @@ export class View {
       moving = true;
     }
     // With damping, update() reports motion until the orbit settles.
+    const now = performance.now();
+    const sixtieths = Math.min(Math.max((now - this.#drawnAt) / (1000 / 60), 1), 30);
+    this.#controls.dampingFactor = 1 - (1 - DAMPING) ** sixtieths;
+    this.#drawnAt = now;
     if (this.#controls.update()) moving = true;
     if (this.#cutaway) this.#placeCut();
-    this.#renderer.render(this.#scene, this.#camera);
-    if (moving || this.#flight) this.requestRender();
+    if (moving) this.#movedAt = now;
+    const navigation = this.#navigation;
+    const settling = !!navigation?.heavy && now - this.#movedAt < SETTLE_MS;
+    if (navigation?.heavy && (moving || settling)) this.#drawLight();
+    else this.#drawFull();
+    if (moving || this.#flight) {
+      this.requestRender();
+    } else if (settling) {
+      clearTimeout(this.#settleTimer);
+      this.#settlePending = true;
+      this.#settleTimer = setTimeout(() => {
+        this.#settlePending = false;
+        this.requestRender();
+      }, SETTLE_MS);
+    }
+  }
+
+  /** Draws the whole model, timed: the time tells whether moving frames must be light. */
+  #drawFull() {
+    this.#setResolution(1);
+    const timed = this.#timedRender();
+    if (timed && this.#root) this.#navigation?.fullFrameTook(timed.ms);
+    this.#logFrame(false, timed);
+    if (this.#navigation?.heavy && this.#navigation.unsent) this.#sendLight();
+  }
+
+  /**
+   * Sends the light mesh to the GPU while the camera stands still, so that
+   * the first moving frame does not pay for it: a render that clears
+   * nothing and draws nothing of it (drawing to the canvas, not to a
+   * target, needs no other shader), right after the full frame.
+   */
+  #sendLight() {
+    const navigation = this.#navigation;
+    const renderer = this.#renderer;
+    const shown = [this.#root, this.#ghosts, this.#markers, this.#selection].filter((o) => o.visible);
+    for (const o of shown) o.visible = false;
+    navigation.mesh.geometry.setDrawRange(0, 0);
+    navigation.mesh.visible = true;
+    renderer.autoClear = false;
+    renderer.render(this.#scene, this.#camera);
+    renderer.autoClear = true;
+    navigation.mesh.visible = false;
+    for (const o of shown) o.visible = true;
+    navigation.unsent = false;
+  }
+
+  /** Draws the parts of the light mesh its budget allows, timed to size the next budget. */
+  #drawLight() {
+    const navigation = this.#navigation;
+    navigation.prepareFrame();
+    this.#setResolution(LIGHT_RESOLUTION);
+    this.#root.visible = false;
+    navigation.mesh.visible = true;
+    const timed = this.#timedRender();
+    navigation.mesh.visible = false;
+    this.#root.visible = true;
+    if (timed) navigation.lightFrameTook(timed.ms);
+    this.#logFrame(true, timed);
+  }
+
+  /** Draws at `share` of the device's pixel ratio (resizing the drawing buffer only when it changes). */
+  #setResolution(share) {
+    const ratio = Math.min(globalThis.devicePixelRatio ?? 1, 2) * share;
+    if (this.#renderer.getPixelRatio() !== ratio) this.#renderer.setPixelRatio(ratio);
+  }
+
+  /**
+   * Renders and waits for the pixels (a one-pixel read): `{ ms, triangles }`,
+   * or null when the frame compiled a shader, which says nothing of the
+   * frames to come.
+   */
+  #timedRender() {
+    const renderer = this.#renderer;
+    const programs = renderer.info.programs?.length ?? 0;
+    const start = performance.now();
+    renderer.render(this.#scene, this.#camera);
+    const gl = renderer.getContext();
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    const ms = performance.now() - start;
+    if ((renderer.info.programs?.length ?? 0) !== programs) return null;
+    return { ms, triangles: renderer.info.render.triangles };
+  }
+
+  #logFrame(light, timed) {
+    if (!timed) return;
+    this.#frameLog.push({ at: performance.now(), light, ms: timed.ms, triangles: timed.triangles });
+    if (this.#frameLog.length > FRAME_LOG) this.#frameLog.shift();
+  }
+
+  /** The last timed frames, oldest first: `{ at, light, ms, triangles }` each (at: performance.now(); light: drawn while the camera moved). */
+  get frameLog() {
+    return this.#frameLog.slice();
+  }
+
+  /** Whether the view stands still and its last frame drew the whole model. */
+  get settled() {
+    return !this.#frameRequested && !this.#flight && !this.#settlePending;
+  }
+
+  /** When a model counts as heavy and what its light frames may take: `{ heavyFrameMs, lightFrameMs, minTriangles }`, any of them. */
+  set navigationLimits(limits) {
+    this.#navigationLimits = { ...this.#navigationLimits, ...limits };
+    if (this.#navigation) Object.assign(this.#navigation.limits, limits);
+  }
+
+  /** Whether moving frames are drawn light, and the triangles they may draw. */
+  get navigation() {
+    const navigation = this.#navigation;
+    return { heavy: !!navigation?.heavy, budget: navigation?.budget ?? 0 };
   }
 
   #resize(container) {
@@ -623,6 +777,20 @@ export class View {
     this.#camera.updateProjectionMatrix();
     this.requestRender();
   }
+}
+
+/**
+ * Whether WebGL runs on a GPU here. A software rasterizer (SwiftShader,
+ * llvmpipe, WARP) either refuses a context asked to fail on a major
+ * performance caveat or names itself in the renderer string.
+ */
+function hardwareWebgl() {
+  const strict = document.createElement('canvas').getContext('webgl2', { failIfMajorPerformanceCaveat: true });
+  if (!strict) return false;
+  const info = strict.getExtension('WEBGL_debug_renderer_info');
+  const renderer = String(strict.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : strict.RENDERER));
+  strict.getExtension('WEBGL_lose_context')?.loseContext();
+  return !/swiftshader|llvmpipe|softpipe|lavapipe|software|basic render/i.test(renderer);
 }
 
 let previewRenderer = null;

@@ -776,3 +776,62 @@ test('viewer: repeated parts — found without a template, a part lights up ever
     await viewer.close();
   }
 });
+
+test('viewer: a heavy model is drawn light while the camera moves, its matches always, and whole once it stops', async () => {
+  const viewer = await openViewer({ isolation: false });
+  const { page } = viewer;
+  try {
+    await waitForStatus(page, 'done');
+    // Here every model is heavy and a light frame draws as little as it
+    // may: the matched mugs, and of the rest only the largest part.
+    await page.evaluate(() => {
+      globalThis.viewer.navigationLimits = { heavyFrameMs: 0, lightFrameMs: 0, minTriangles: 1 };
+    });
+    const since = await page.evaluate(() => performance.now());
+    const box = await page.locator('#viewport canvas').boundingBox();
+    const x = box.x + box.width / 2;
+    const y = box.y + box.height / 2;
+    await page.mouse.move(x, y);
+    await page.mouse.down();
+    for (let step = 1; step <= 20; step += 1) {
+      await page.mouse.move(x + 5 * step, y + step);
+      await page.waitForTimeout(50);
+    }
+    await page.mouse.up();
+    await page.waitForFunction(() => globalThis.viewer.settled, null, { timeout: 60_000, polling: 100 });
+    const frames = (await page.evaluate(() => globalThis.viewer.frameLog)).filter((f) => f.at > since);
+    const light = frames.filter((f) => f.light);
+    const full = frames.filter((f) => !f.light);
+    assert.ok(light.length >= 3, `${light.length} light frames while the camera moved`);
+    assert.equal(frames.at(-1).light, false, 'the last frame draws the whole model');
+    const whole = full.at(-1).triangles;
+    assert.ok(light.every((f) => f.triangles < whole), `light frames draw ${light.map((f) => f.triangles)} of ${whole} triangles`);
+    assert.deepEqual(await page.evaluate(() => globalThis.viewer.navigation.heavy), true);
+
+    // From where the orbit left the camera: every mug lit in the light
+    // frame too, and the shapes beside them drawn only in the full one.
+    const demo = await truth(resolve(repo, 'assets/demo'));
+    const mugs = demo.instances.map((t) => [t.transform[0][3], t.transform[1][3], t.transform[2][3]]);
+    const shapes = [
+      [2.6, 0, 0],
+      [0, 2.6, 0],
+      [5.2, 2.6, 0],
+      [0, 5.2, 0],
+      [2.6, 5.2, 0],
+      [5.2, 5.2, 0],
+    ];
+    const background = ([r, g, b]) => Math.abs(r - 0x20) + Math.abs(g - 0x24) + Math.abs(b - 0x2b) < 12;
+    const drawn = (squares) => squares.filter((square) => square.some((c) => !background(c))).length;
+    const lit = (squares) => squares.filter((square) => square.some(isMatchColour)).length;
+    const colours = (points, light, spread) =>
+      page.evaluate(([points, light, spread]) => globalThis.viewer.coloursAt(points, { spread, light }), [points, light, spread]);
+    assert.equal(lit(await colours(mugs, true, 3)), mugs.length, 'every match is drawn in a light frame');
+    assert.equal(lit(await colours(mugs, false, 3)), mugs.length);
+    // A shape may be hollow at its centre (a ring): the square around it is wider.
+    assert.equal(drawn(await colours(shapes, false, 10)), shapes.length, 'the full frame draws every shape');
+    assert.ok(drawn(await colours(shapes, true, 10)) <= 1, 'a light frame at its least draws one part besides the matches');
+    assert.deepEqual(viewer.problems, []);
+  } finally {
+    await viewer.close();
+  }
+});
