@@ -2,9 +2,10 @@
 # `npm pack` of pkg/, installed into a scratch project as a user would:
 # Node resolves its `exports` and runs it, tsc type-checks a program against
 # its types (the JS entry included; a wrong call must be rejected), Vite
-# bundles it for the browser with both wasm builds as assets, and the
-# README's worker example runs as written in Node and, bundled by Vite, in
-# headless Chromium.
+# bundles it for the browser with both wasm builds as assets, the README's
+# worker example runs as written in Node and, bundled by Vite, in headless
+# Chromium, and a search runs under the Vite dev server and in an esbuild
+# bundle made by the README's recipe.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 tools=$repo/js/node_modules
@@ -278,3 +279,48 @@ if (!refused.poolError || refused.seconds > 15) throw new Error('broken pool, th
 console.log('ok: with the pool broken, threads failed with a ThreadPoolError after ' + refused.seconds.toFixed(1) + ' s');
 JS
 timeout 300 node dev-server.mjs
+
+echo "-- esbuild, as the README says: its own server (plain), then served cross-origin isolated (threads)"
+awk '/^### esbuild/ { found = 1; next }
+     found && /^```sh/ { inside = 1; next }
+     inside && /^```/ { exit }
+     inside { print }' node_modules/fast-reject/README.md > esbuild-recipe.sh
+test -s esbuild-recipe.sh || { echo "no esbuild recipe in the package README" >&2; exit 1; }
+rm -rf dist
+cp src/dev.js src/app.js
+PATH="$tools/.bin:$PATH" bash -euo pipefail esbuild-recipe.sh
+mkdir -p dist/demo
+cp node_modules/fast-reject/demo/*.glb dist/demo/
+echo '<!doctype html><script type="module" src="/app.js"></script>' > dist/dev.html
+cat > esbuild-check.mjs <<JS
+import * as esbuild from '$tools/esbuild/lib/main.js';
+import { launchChromium } from '$repo/js/test/browser.js';
+import { startServer } from '$repo/www/server.js';
+
+async function visit(origin) {
+  const browser = await launchChromium();
+  try {
+    const page = await browser.newPage();
+    await page.goto(origin + '/dev.html');
+    return await page.evaluate(() => globalThis.devResult);
+  } finally {
+    await browser.close();
+  }
+}
+// esbuild's dev server, rebuilding the bundle on each request.
+const context = await esbuild.context({ entryPoints: ['src/app.js'], bundle: true, format: 'esm', outdir: 'dist', logLevel: 'warning' });
+const { port } = await context.serve({ servedir: 'dist', host: '127.0.0.1' });
+const served = await visit('http://127.0.0.1:' + port);
+await context.dispose();
+if (served.build !== 'plain' || served.found !== 3 || served.fallback !== null) throw new Error('esbuild serve: ' + JSON.stringify(served));
+console.log('ok: under esbuild serve the plain build found 3 mugs in ' + served.seconds.toFixed(1) + ' s');
+const { server, origin } = await startServer({ port: 0, roots: { '/': '$scratch/app/dist' } });
+try {
+  const isolated = await visit(origin);
+  if (isolated.build !== 'threads' || isolated.found !== 3) throw new Error('esbuild bundle, isolated: ' + JSON.stringify(isolated));
+  console.log('ok: the esbuild bundle, served cross-origin isolated, ran the threaded build and found 3 mugs in ' + isolated.seconds.toFixed(1) + ' s');
+} finally {
+  server.close();
+}
+JS
+timeout 300 node esbuild-check.mjs
