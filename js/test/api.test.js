@@ -99,8 +99,10 @@ test('bad input is an Error and the module stays usable', async () => {
   assert.ok(counts.length >= 1);
   for (const [k, c] of counts.entries()) {
     assert.equal(c.step, 'parts');
-    assert.ok(c.done >= (counts[k - 1]?.done ?? 1) && c.done <= c.total && c.total <= scene.parts, JSON.stringify(c));
+    assert.ok(c.done >= (counts[k - 1]?.done ?? 0) && c.done <= c.total && c.total <= scene.parts, JSON.stringify(c));
   }
+  // The total is told before the first part is searched.
+  assert.equal(counts[0].done, 0);
   assert.equal(counts.at(-1).done, counts.at(-1).total);
   // The same handles still give a full search afterwards.
   const layers = [];

@@ -660,8 +660,27 @@ test('viewer: matches inside an assembly — isolate shows every one, a click th
     await page.setInputFiles('#scene-input', resolve(saw, 'scene.glb'));
     await waitForStatus(page, 'ready');
     const templateGlb = await readFile(resolve(saw, 'template.glb'));
+    // Every value the progress bar takes during the search, and the text beside it.
+    await page.evaluate(() => {
+      globalThis.barValues = [];
+      const bar = document.getElementById('progress-bar');
+      new MutationObserver(() => globalThis.barValues.push({ value: bar.value, text: document.getElementById('progress-text').textContent })).observe(
+        bar,
+        { attributes: true, attributeFilter: ['value'] },
+      );
+    });
     await page.setInputFiles('#template-input', { name: 'roller.glb', mimeType: 'model/gltf-binary', buffer: templateGlb });
     await waitForStatus(page, 'done');
+    // The bar starts from 0 and only rises to 1: no jump back between the
+    // layers of the first part and the count of parts.
+    const bar = await page.evaluate(() => globalThis.barValues);
+    const fromZero = bar.slice(bar.findLastIndex((b) => b.value === 0));
+    assert.ok(fromZero.length >= 5, `the bar moved ${fromZero.length} times`);
+    for (let k = 1; k < fromZero.length; k += 1) {
+      assert.ok(fromZero[k].value >= fromZero[k - 1].value, `the bar fell from ${JSON.stringify(fromZero[k - 1])} to ${JSON.stringify(fromZero[k])}`);
+    }
+    assert.equal(fromZero.at(-1).value, 1);
+    assert.ok(fromZero.some((b) => /^Searched \d+ of \d+ parts/.test(b.text)), 'parts done of total are told');
     const report = await page.evaluate(() => globalThis.viewer.report);
     const sawTruth = await truth(saw);
     assertMatchesTruth(report, sawTruth, 'real-saw-roller');

@@ -68,6 +68,9 @@ impl<'a> PartSearch<'a> {
             done: 0,
             total: originals.len(),
         };
+        // The total before the first part: a bar of parts does not wait a
+        // whole part (or the sample) to learn it.
+        report_progress(observer, &progress)?;
         let limit = self.options.max_part_work;
         let mut work = 0.0;
         if originals.len() >= PROBE_FROM {
