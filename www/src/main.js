@@ -895,7 +895,12 @@ function focusInstance(index) {
   if (!report) return;
   const p = report.instancePositions;
   view.setMatches(p, report.highlightRadius, index);
-  view.flyTo([p[3 * index], p[3 * index + 1], p[3 * index + 2]], report.highlightRadius * 7);
+  const hidden = view.flyTo([p[3 * index], p[3 * index + 1], p[3 * index + 2]], report.highlightRadius * 7);
+  // A match inside an assembly: what stands in front of it is cut away.
+  if (hidden && !view.cutaway) {
+    $('cutaway').checked = true;
+    view.cutaway = true;
+  }
   [...$('instance-list').querySelectorAll('button')].forEach((b, i) => b.classList.toggle('focused', i === index));
 }
 

@@ -611,18 +611,37 @@ export class View {
     return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
   }
 
-  /** Flies the camera to look at `point` from `distance`, keeping the direction of view. */
+  /**
+   * Flies the camera to look at `point` from `distance`, keeping the
+   * direction of view. Returns whether, from there, the drawn model hides
+   * the point: a surface outside every match lies in front of it, farther
+   * from it than the cut-away would leave.
+   */
   flyTo(point, distance) {
     const target = new THREE.Vector3().fromArray(point);
     const direction = this.#camera.position.clone().sub(this.#controls.target).normalize();
+    const toPosition = target.clone().addScaledVector(direction, distance);
     this.#flight = {
       start: performance.now(),
       fromTarget: this.#controls.target.clone(),
       fromPosition: this.#camera.position.clone(),
       toTarget: target,
-      toPosition: target.clone().addScaledVector(direction, distance),
+      toPosition,
     };
     this.requestRender();
+    return this.#hides(toPosition, target);
+  }
+
+  /** Whether what is drawn opaque between `from` and `point` hides it (see flyTo). */
+  #hides(from, point) {
+    // Isolated or in x-ray, nothing outside a match stands in the way.
+    if (!this.#root || this.#isolate || this.xray) return false;
+    const ray = point.clone().sub(from);
+    const clear = (this.#matchRadius > 0 ? this.#matchRadius : 0.05 * this.#sceneRadius) * CUT_MARGIN;
+    const far = ray.length() - clear;
+    if (far <= 0) return false;
+    const raycaster = new THREE.Raycaster(from, ray.normalize(), 0, far);
+    return raycaster.intersectObject(this.#root, true).some((hit) => hit.object.visible && !this.#inMatch(hit.point));
   }
 
   /** Whether the camera is still flying to a point. */

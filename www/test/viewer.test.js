@@ -199,10 +199,12 @@ for (const isolation of [true, false]) {
       assert.equal(await page.evaluate(() => globalThis.viewer.highlighted), report.instances.length);
       await mkdir(screenshots, { recursive: true });
       await page.screenshot({ path: resolve(screenshots, `viewer-${mode}.png`) });
-      // Flying to a match from the list singles it out.
+      // Flying to a match from the list singles it out; a bunny in the open
+      // needs nothing cut away.
       await page.locator('#instance-list li button').nth(1).click();
       await page.waitForTimeout(900);
       assert.ok(await page.locator('#instance-list li button').nth(1).evaluate((b) => b.classList.contains('focused')));
+      assert.equal(await page.evaluate(() => globalThis.viewer.cutaway), false);
       await page.screenshot({ path: resolve(screenshots, `viewer-${mode}-focus.png`) });
       assert.deepEqual(viewer.problems, []);
     } finally {
@@ -733,12 +735,14 @@ test('viewer: matches inside an assembly — isolate shows every one, a click th
     await page.keyboard.press('x');
     await page.click('label:has(input[value="model"])');
 
-    // Flown to from the list, with the cut-away on: the match is in sight.
-    await page.keyboard.press('c');
-    assert.equal(await page.evaluate(() => globalThis.viewer.cutaway), true);
+    // Flown to from the list: the housing hides the roller from there, so
+    // the cut-away turns on by itself, and the match is in sight.
+    assert.equal(await page.evaluate(() => globalThis.viewer.cutaway), false);
     // Frames are slow on software WebGL: two flights.
     for (const k of [7, 20]) {
       await page.locator('#instance-list li button').nth(k).click();
+      assert.equal(await page.evaluate(() => globalThis.viewer.cutaway), true);
+      assert.equal(await page.locator('#cutaway').isChecked(), true);
       await page.waitForFunction(
         (p) => globalThis.viewer.cameraTarget.every((v, i) => Math.abs(v - p[i]) < 1e-9 + 1e-6 * Math.abs(p[i])),
         centres[k],
