@@ -399,6 +399,22 @@ fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     // software, so the CPU runs.
     if gpu["gpu"]["adapter"].as_str().unwrap().contains("software") {
         assert!(run("auto")["gpu"].is_null());
+        // The table says where auto ran.
+        let out = cli(&[
+            "match",
+            &scene,
+            "--template",
+            &template,
+            "--backend",
+            "auto",
+        ]);
+        let table = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            table.contains(
+                "harmonics layers on the CPU: --backend auto found no hardware GPU adapter"
+            ),
+            "{table}"
+        );
     }
     assert!(!gpu["gpu"]["adapter"].as_str().unwrap().is_empty());
     assert!(gpu["gpu"]["fallback"].is_null());

@@ -200,7 +200,10 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         _ => job()?,
     };
     progress.finish();
-    print_report(&report, args.json, descriptor)
+    // Said in the table, where a reader would otherwise wonder where auto ran.
+    let note = (args.backend == Compute::Auto && gpu.is_none())
+        .then_some("harmonics layers on the CPU: --backend auto found no hardware GPU adapter");
+    print_report(&report, args.json, descriptor, note)
 }
 
 /// An error in the command line's words: an option by its flag.
@@ -291,7 +294,7 @@ fn run_demo(json: bool) -> Result<(), String> {
             "Demo: searching the embedded scene (mugs among other objects) for the embedded mug.\n",
         )?;
     }
-    print_report(&report, json, DescriptorKind::default())
+    print_report(&report, json, DescriptorKind::default(), None)
 }
 
 fn parse_select(s: &str) -> Result<TemplateSource, String> {
@@ -355,11 +358,13 @@ fn print_report(
     report: &MatchReport,
     json: bool,
     descriptor: DescriptorKind,
+    note: Option<&str>,
 ) -> Result<(), String> {
     let text = if json {
         serde_json::to_string(report).map_err(|e| e.to_string())?
     } else {
-        format!("descriptor: {descriptor}\n{}", table::Table(report))
+        let note = note.map(|n| format!("{n}\n")).unwrap_or_default();
+        format!("descriptor: {descriptor}\n{note}{}", table::Table(report))
     };
     write_out(&text)
 }
