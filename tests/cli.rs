@@ -376,16 +376,20 @@ fn a_file_is_read_by_its_content_before_its_extension() {
 fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo");
     let (scene, template) = (format!("{demo}/scene.glb"), format!("{demo}/template.glb"));
-    let run = |backend: &str| -> serde_json::Value {
-        let out = cli(&[
+    let search = |backend: &str, json: bool| {
+        let mut args = vec![
             "match",
             &scene,
             "--template",
             &template,
             "--backend",
             backend,
-            "--json",
-        ]);
+        ];
+        args.extend(json.then_some("--json"));
+        cli(&args)
+    };
+    let run = |backend: &str| -> serde_json::Value {
+        let out = search(backend, true);
         assert!(
             out.status.success(),
             "--backend {backend}: {}",
@@ -400,15 +404,7 @@ fn the_gpu_backend_names_its_adapter_and_finds_the_same_mugs() {
     if gpu["gpu"]["adapter"].as_str().unwrap().contains("software") {
         assert!(run("auto")["gpu"].is_null());
         // The table says where auto ran.
-        let out = cli(&[
-            "match",
-            &scene,
-            "--template",
-            &template,
-            "--backend",
-            "auto",
-        ]);
-        let table = String::from_utf8_lossy(&out.stdout);
+        let table = String::from_utf8_lossy(&search("auto", false).stdout).into_owned();
         assert!(
             table.contains(
                 "harmonics layers on the CPU: --backend auto found no hardware GPU adapter"
