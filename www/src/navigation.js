@@ -218,8 +218,9 @@ export class LightNavigation {
     if (!this.heavy) return;
     if (!this.mesh) this.#build();
     const total = this.#ends.at(-1) ?? 0;
-    // Half the share of the full frame's time, as the first light frame
-    // also sends the light mesh to the GPU; the light frames correct it.
+    // Half the triangles' share of the target time, to start low: a light
+    // frame still pays for the fragments of the parts it keeps, and the
+    // light frames raise the budget more slowly than they lower it.
     if (this.budget === 0) this.budget = Math.max(minTriangles, Math.floor((0.5 * total * lightFrameMs) / Math.max(ms, 1)));
   }
 
