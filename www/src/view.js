@@ -448,16 +448,12 @@ export class View {
     this.#setResolution(1);
     this.#camera.updateMatrixWorld();
     if (this.#cutaway) this.#placeCut();
-    const lighter = light && this.#navigation?.mesh ? this.#navigation : null;
-    if (lighter) {
-      lighter.prepareFrame();
-      this.#root.visible = false;
-      lighter.mesh.visible = true;
-    }
-    this.#renderer.render(this.#scene, this.#camera);
-    if (lighter) {
-      lighter.mesh.visible = false;
-      this.#root.visible = true;
+    const render = () => this.#renderer.render(this.#scene, this.#camera);
+    if (light && this.#navigation?.mesh) {
+      this.#navigation.prepareFrame();
+      this.#withLightMesh(render);
+    } else {
+      render();
     }
     for (const o of hidden) o.visible = true;
     const canvas = this.#renderer.domElement;
@@ -707,18 +703,12 @@ export class View {
    * target, needs no other shader), right after the full frame.
    */
   #sendLight() {
-    const navigation = this.#navigation;
     const renderer = this.#renderer;
-    const shown = [this.#root, this.#ghosts, this.#markers, this.#selection].filter((o) => o.visible);
-    for (const o of shown) o.visible = false;
-    navigation.mesh.geometry.setDrawRange(0, 0);
-    navigation.mesh.visible = true;
+    this.#navigation.mesh.geometry.setDrawRange(0, 0);
     renderer.autoClear = false;
-    renderer.render(this.#scene, this.#camera);
+    this.#withLightMesh(() => renderer.render(this.#scene, this.#camera), { alone: true });
     renderer.autoClear = true;
-    navigation.mesh.visible = false;
-    for (const o of shown) o.visible = true;
-    navigation.unsent = false;
+    this.#navigation.unsent = false;
   }
 
   /** Draws the parts of the light mesh its budget allows, timed to size the next budget. */
@@ -726,13 +716,27 @@ export class View {
     const navigation = this.#navigation;
     navigation.prepareFrame();
     this.#setResolution(LIGHT_RESOLUTION);
-    this.#root.visible = false;
-    navigation.mesh.visible = true;
-    const timed = this.#timedRender();
-    navigation.mesh.visible = false;
-    this.#root.visible = true;
+    const timed = this.#withLightMesh(() => this.#timedRender());
     if (timed) navigation.lightFrameTook(timed.ms);
     this.#logFrame(true, timed);
+  }
+
+  /**
+   * What `draw` returns, drawn with the light mesh in the model's place
+   * (`alone`: with nothing else shown either), the model shown again after.
+   */
+  #withLightMesh(draw, { alone = false } = {}) {
+    const mesh = this.#navigation.mesh;
+    const others = alone ? [this.#root, this.#ghosts, this.#markers, this.#selection] : [this.#root];
+    const hidden = others.filter((o) => o?.visible);
+    for (const o of hidden) o.visible = false;
+    mesh.visible = true;
+    try {
+      return draw();
+    } finally {
+      mesh.visible = false;
+      for (const o of hidden) o.visible = true;
+    }
   }
 
   /** Draws at `share` of the device's pixel ratio (resizing the drawing buffer only when it changes). */
