@@ -112,7 +112,9 @@ pub use mesh::TriMesh;
 pub use mesh::io::load;
 pub use repeats::{Family, RepeatCopy, find_repeats, find_repeats_observed};
 pub use scene::{Scene, SceneOptions};
-pub use search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
+pub use search::{
+    DescriptorKind, Executor, MatchOptions, MatchReport, SearchPlan, plan, search, search_on,
+};
 pub use template::TemplateSource;
 
 /// A file of the shared test data: `$FAST_REJECT_SHARED/rel` when that is

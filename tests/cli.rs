@@ -243,6 +243,42 @@ fn the_parts_work_limit_is_set_on_the_command_line() {
 }
 
 #[test]
+fn plan_tells_the_parts_and_the_least_time_without_searching() {
+    // The demo's seven distinct parts; a limit below their least work is
+    // said to refuse the search, which --plan does not run.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/scene.glb");
+    let template = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/template.glb");
+    let plan = |more: &[&str]| {
+        let mut args = vec!["match", scene, "--template", template, "--plan"];
+        args.extend_from_slice(more);
+        cli(&args)
+    };
+    let out = plan(&["--json", "--threads", "1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["distinct_parts"], 7, "{v}");
+    assert!(v["parts"].as_u64().unwrap() >= 7, "{v}");
+    assert_eq!(v["threads"], 1);
+    let (work, seconds) = (
+        v["least_work"].as_f64().unwrap(),
+        v["least_seconds"].as_f64().unwrap(),
+    );
+    assert!(work > 0.0 && (seconds - work / 1e9).abs() < 1e-9, "{v}");
+    assert_eq!(v["over_limit"], false);
+    let refused = plan(&["--json", "--max-part-work", "1"]);
+    let v: serde_json::Value = serde_json::from_slice(&refused.stdout).unwrap();
+    assert_eq!(v["over_limit"], true);
+    let table = plan(&[]);
+    let text = String::from_utf8_lossy(&table.stdout);
+    assert!(
+        text.starts_with("parts that can hold a copy:") && !text.contains("instances"),
+        "{text}"
+    );
+    let curvature = plan(&["--json", "--descriptor", "curvature"]);
+    assert_eq!(String::from_utf8_lossy(&curvature.stdout).trim(), "null");
+}
+
+#[test]
 fn errors_exit_non_zero_with_a_message() {
     let dir = scratch("cli-errors");
     let garbage = dir.join("garbage.glb");

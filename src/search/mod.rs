@@ -4,10 +4,12 @@
 //! (`curvature.rs`: on the welded mesh's vertices).
 
 mod curvature;
+mod plan;
 mod report;
 mod voxel;
 
 pub use crate::options::{DescriptorKind, MatchOptions};
+pub use plan::{SearchPlan, plan};
 pub use report::{GpuInfo, GridInfo, MatchReport, SurfaceInfo, TemplateInfo, Timings};
 
 use crate::cascade::Observer;

@@ -44,14 +44,24 @@ pub(crate) fn voxel_work(mesh: &TriMesh, voxel_size: f64, backend: Threads) -> f
     let triangles = mesh.triangles().len();
     let chunks = backend.map_each(triangles.div_ceil(CHUNK), |c| {
         (c * CHUNK..((c + 1) * CHUNK).min(triangles))
-            .map(|t| {
-                let [a, b, c] = mesh.corners(t);
-                let n = (b - a).cross(c - a);
-                (n.x.abs() + n.y.abs() + n.z.abs()) / 2.0
-            })
+            .map(|t| projected_area(mesh, t))
             .sum::<f64>()
     });
     chunks.iter().sum::<f64>() / (voxel_size * voxel_size)
+}
+
+/// [`voxel_work`] of the triangles `part` of `mesh`, serially: a part's
+/// share of the work, as the search plans it.
+pub(crate) fn part_voxel_work(mesh: &TriMesh, part: &[u32], voxel_size: f64) -> f64 {
+    let area: f64 = part.iter().map(|&t| projected_area(mesh, t as usize)).sum();
+    area / (voxel_size * voxel_size)
+}
+
+/// Triangle `t`'s area projected on the three axis planes, summed.
+fn projected_area(mesh: &TriMesh, t: usize) -> f64 {
+    let [a, b, c] = mesh.corners(t);
+    let n = (b - a).cross(c - a);
+    (n.x.abs() + n.y.abs() + n.z.abs()) / 2.0
 }
 
 /// Bytes of the run tables of one digital ball of `radius` voxels read at

@@ -15,7 +15,7 @@ mod surface;
 mod window;
 
 pub use ball::{Ball, BallMoment};
-pub(crate) use estimate::{ball_bytes, voxel_bytes, voxel_work};
+pub(crate) use estimate::{ball_bytes, part_voxel_work, voxel_bytes, voxel_work};
 pub use fill::fill_solid;
 pub(crate) use grid::AtomicGrid;
 pub use grid::{Grid, GridSpec, PADDING};

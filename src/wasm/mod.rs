@@ -432,6 +432,45 @@ impl SceneHandle {
         self.finish_search(result, progress, template)
     }
 
+    /// What a search for `template` with `options` will take, judged
+    /// without running it (see [`crate::search::SearchPlan`]), with
+    /// `least_seconds`: its least work shared by the module's threads. Null
+    /// for the curvature descriptor. A `resolution` other than the
+    /// scene's voxelizes it again, as the search would.
+    pub fn plan(
+        &mut self,
+        template: &TemplateHandle,
+        options: JsValue,
+    ) -> Result<JsValue, JsError> {
+        let settings = self.settings_for_search(&options)?;
+        let plan = crate::search::plan(&self.scene, &template.source, &settings.options)
+            .map_err(js_error)?;
+        let Some(plan) = plan else {
+            return Ok(JsValue::NULL);
+        };
+        let object = Object::new();
+        set(&object, "parts", &JsValue::from(plan.parts as f64));
+        set(
+            &object,
+            "distinct_parts",
+            &JsValue::from(plan.distinct_parts as f64),
+        );
+        set(
+            &object,
+            "skin_voxels",
+            &JsValue::from(plan.skin_voxels.round()),
+        );
+        set(&object, "least_work", &JsValue::from(plan.least_work));
+        let seconds = plan.least_seconds(thread_count());
+        set(&object, "least_seconds", &JsValue::from(seconds));
+        set(
+            &object,
+            "over_limit",
+            &JsValue::from(plan.over_limit(&settings.options)),
+        );
+        Ok(object.into())
+    }
+
     /// [`Self::run_match`] with the volume and harmonics layers on the
     /// browser's WebGPU, resolving to the same report; its `gpu` names the
     /// adapter. A page with no adapter, or only a fallback (software)

@@ -17,7 +17,9 @@ use fast_reject::gpu::{AdapterChoice, Gpu};
 use fast_reject::mesh::TriMesh;
 use fast_reject::mesh::io::{Model, load_model, load_with_resources, sniff};
 use fast_reject::scene::{Scene, SceneOptions};
-use fast_reject::search::{DescriptorKind, Executor, MatchOptions, MatchReport, search, search_on};
+use fast_reject::search::{
+    DescriptorKind, Executor, MatchOptions, MatchReport, SearchPlan, plan, search, search_on,
+};
 use folder_resolver::FolderResolver;
 use progress::ProgressLine;
 
@@ -81,6 +83,10 @@ struct MatchArgs {
     /// (on a terminal it is always shown), a line a second.
     #[arg(long)]
     progress: bool,
+    /// Print what the search will take, judged without running it (the
+    /// parts it searches and the least time), and stop.
+    #[arg(long)]
+    plan: bool,
 }
 
 fn main() -> ExitCode {
@@ -160,7 +166,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     scene_options.backend = backend;
     let gpu = gpu_for(args.backend)?;
     let mut progress = ProgressLine::new(args.progress);
-    let mut job = || -> Result<MatchReport, String> {
+    let mut job = || -> Result<Outcome, String> {
         let start = std::time::Instant::now();
         progress.phase("loading the scene");
         let scene_mesh = load_file(&args.scene)?;
@@ -176,6 +182,15 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         let scene = Scene::new_observed(scene_mesh, &scene_options, &mut progress)
             .map_err(|e| format!("scene '{}': {}", shown(&args.scene), described(&e)))?;
         let load = start.elapsed().as_secs_f64() * 1e3;
+        if args.plan {
+            progress.phase("planning");
+            let plan = plan(&scene, &source, &options).map_err(|e| described(&e))?;
+            let threads = match backend {
+                Threads::Serial => 1,
+                _ => rayon::current_num_threads(),
+            };
+            return Ok(Outcome::Plan(plan, threads));
+        }
         progress.phase("searching");
         let mut report = match &gpu {
             Some(gpu) => pollster::block_on(search_on(
@@ -189,7 +204,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         }
         .map_err(|e| described(&e))?;
         report.timings.load = load;
-        Ok(report)
+        Ok(Outcome::Report(report))
     };
     let report = match args.threads {
         Some(n) if n > 1 => rayon::ThreadPoolBuilder::new()
@@ -200,10 +215,72 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         _ => job()?,
     };
     progress.finish();
+    let report = match report {
+        Outcome::Report(report) => report,
+        Outcome::Plan(plan, threads) => {
+            return print_plan(plan.as_ref(), threads, &options, args.json);
+        }
+    };
     // Said in the table, where a reader would otherwise wonder where auto ran.
     let note = (args.backend == Compute::Auto && gpu.is_none())
         .then_some("harmonics layers on the CPU: --backend auto found no hardware GPU adapter");
     print_report(&report, args.json, descriptor, note)
+}
+
+/// What `match` did: searched, or only planned (`--plan`, on so many threads).
+enum Outcome {
+    Report(MatchReport),
+    Plan(Option<SearchPlan>, usize),
+}
+
+/// `--plan`'s output: the plan and the least time on `threads`, or a line
+/// (JSON null) for a search with no plan.
+fn print_plan(
+    plan: Option<&SearchPlan>,
+    threads: usize,
+    options: &MatchOptions,
+    json: bool,
+) -> Result<(), String> {
+    #[derive(serde::Serialize)]
+    struct Shown<'p> {
+        #[serde(flatten)]
+        plan: &'p SearchPlan,
+        threads: usize,
+        least_seconds: f64,
+        over_limit: bool,
+    }
+    let shown = plan.map(|plan| Shown {
+        plan,
+        threads,
+        least_seconds: plan.least_seconds(threads),
+        over_limit: plan.over_limit(options),
+    });
+    let text = match (json, shown) {
+        (true, shown) => serde_json::to_string(&shown).map_err(|e| e.to_string())?,
+        (false, None) => {
+            "no plan: the curvature search's work is the welded surface's vertices".into()
+        }
+        (false, Some(s)) => {
+            let copies = s.plan.parts - s.plan.distinct_parts;
+            let refused = match s.over_limit {
+                true => "\nthe search would be refused: its least work passes --max-part-work",
+                false => "",
+            };
+            format!(
+                "parts that can hold a copy: {} ({} distinct, searched; {copies} copies of them)\n\
+                 skin voxels of the distinct parts: about {:.0}\n\
+                 time: about {:.2} s or more on {threads} threads (least work {:.3e} of --max-part-work {:.3e}); \
+                 parts like the template take several times more{refused}",
+                s.plan.parts,
+                s.plan.distinct_parts,
+                s.plan.skin_voxels,
+                s.least_seconds,
+                s.plan.least_work,
+                options.max_part_work,
+            )
+        }
+    };
+    write_out(&text)
 }
 
 /// An error in the command line's words: an option by its flag.

@@ -11,12 +11,14 @@
 //! - `place`: the survivors verified by placement, grouped, and aligned on
 //!   the meshes;
 //! - `work`: what searching the distinct parts takes, judged from a sample
-//!   first and refused past the limit.
+//!   first and refused past the limit; `plan` judges it from the parts'
+//!   areas before the search runs.
 
 mod grid;
 mod near_vertices;
 mod parts;
 mod place;
+mod plan;
 mod prepare;
 mod signatures;
 mod waves;
@@ -37,6 +39,7 @@ use crate::scene::{Parts, Scene};
 use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
 use place::moved_instance;
+pub(super) use plan::plan_voxels;
 use prepare::PartSearch;
 use waves::Found;
 

@@ -18,6 +18,7 @@ use crate::exec::Teller;
 use crate::instances::{Instance, merge_duplicates};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Lattice, PartVoxels, Scene, ScenePart};
+use crate::template::VoxelTemplate;
 use crate::voxel::WindowedMesh;
 use crate::voxel::voxel_bytes;
 
@@ -39,15 +40,7 @@ impl<'a> PartSearch<'a> {
         &self,
         all: &'p [ScenePart],
     ) -> Result<Vec<(usize, &'p ScenePart)>> {
-        let scene: &'a Scene = self.scene;
-        let parts: Vec<(usize, &ScenePart)> = all
-            .iter()
-            .enumerate()
-            .filter(|(_, part)| part.radius() >= self.template.min_part_radius())
-            .collect();
-        let reach = self.template.radius() / self.lattice.spec.voxel_size;
-        check_part_volume(scene, &self.lattice, &parts, reach)?;
-        Ok(parts)
+        parts_to_search(self.scene, &self.template, &self.lattice, all)
     }
 
     /// What each part of `originals` (indices into `parts`) found, by
@@ -436,6 +429,25 @@ impl<'a> PartSearch<'a> {
 /// distance of a vertex, so of a triangle that meets the core grown by it:
 /// the core is cut down to those triangles' box, grown by it (a window over
 /// a terrain or a scan is mostly empty space above and below the sheet).
+/// The parts of `all` large enough to hold a copy of `template`, with
+/// their indices; fails when voxelizing them one by one on `lattice` would
+/// take far more than the scene's own grid.
+pub(super) fn parts_to_search<'p>(
+    scene: &Scene,
+    template: &VoxelTemplate,
+    lattice: &Lattice,
+    all: &'p [ScenePart],
+) -> Result<Vec<(usize, &'p ScenePart)>> {
+    let parts: Vec<(usize, &ScenePart)> = all
+        .iter()
+        .enumerate()
+        .filter(|(_, part)| part.radius() >= template.min_part_radius())
+        .collect();
+    let reach = template.radius() / lattice.spec.voxel_size;
+    check_part_volume(scene, lattice, &parts, reach)?;
+    Ok(parts)
+}
+
 fn fitted_to_content(
     window: &Window,
     near: &NearVertices,

@@ -67,12 +67,7 @@ impl<'a> PartSearch<'a> {
         source: &TemplateSource,
         options: &'a MatchOptions,
     ) -> Result<PartSearch<'a>> {
-        // A small template refines the grid until it spans enough voxels.
-        let lattice = if options.template_voxels > 0.0 {
-            scene.lattice_for(source.bounding_radius(), options.template_voxels)?
-        } else {
-            scene.lattice()
-        };
+        let lattice = search_lattice(scene, source, options)?;
         let template = VoxelTemplate::new(source, scene, &lattice, options)?;
         let voxel = lattice.spec.voxel_size;
         let radii_voxels: Vec<f64> = template.radii().iter().map(|r| r / voxel).collect();
@@ -130,6 +125,20 @@ impl<'a> PartSearch<'a> {
             template,
             lattice,
         })
+    }
+}
+
+/// The lattice `source` is searched on: the scene's, refined for a small
+/// template until it spans enough voxels.
+pub(super) fn search_lattice(
+    scene: &Scene,
+    source: &TemplateSource,
+    options: &MatchOptions,
+) -> Result<Lattice> {
+    if options.template_voxels > 0.0 {
+        scene.lattice_for(source.bounding_radius(), options.template_voxels)
+    } else {
+        Ok(scene.lattice())
     }
 }
 
