@@ -150,6 +150,25 @@ export interface MatchReport {
   threads: number;
 }
 
+/**
+ * What a search will take, judged before it runs (`Scene.plan`): the search's first steps (the template, which
+ * parts can hold a copy, which copy one another) and the rest from the parts' areas.
+ */
+export interface SearchPlan {
+  /** The scene's parts large enough to hold a copy. */
+  parts: number;
+  /** Of those, the ones searched; the others are rigid copies of one and take its instances, moved. */
+  distinctParts: number;
+  /** The distinct parts' skin voxels (the candidates), estimated from their areas. */
+  skinVoxels: number;
+  /** The least work the search takes, in about nanoseconds of one core (the unit of `maxPartWork`). */
+  leastWork: number;
+  /** `leastWork` shared by the module's threads, in seconds: about the least the search takes; parts like the template take several times more. */
+  leastSeconds: number;
+  /** Whether the search will be refused for its work (`maxPartWork`) even at the least. */
+  overLimit: boolean;
+}
+
 export interface TemplateOptions {
   /** The format; recognized from the content when absent. */
   format?: MeshFormat;
@@ -255,6 +274,11 @@ export class Scene extends Handle {
   readonly triangles: number;
   /** Finds every occurrence of `template`; throws a `CancelledError` when cancelled, an `Error` on bad options. */
   match(template: Template, options?: MatchOptions, observe?: LayerCallback | SearchCallbacks): MatchReport;
+  /**
+   * What a search for `template` with `options` will take, judged in a fraction of the search's time without
+   * running it; null for the curvature descriptor (its work is the welded surface's vertices).
+   */
+  plan(template: Template, options?: MatchOptions): SearchPlan | null;
   /**
    * Like `match`, with the volume and harmonics layers on WebGPU where `navigator.gpu` gives a hardware adapter
    * (a fallback, software one only with `allowSoftware`): the same instances. The report's `gpu` names the adapter,

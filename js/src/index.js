@@ -385,6 +385,17 @@ export class Scene extends Handle {
     }
   }
   /**
+   * What a search for `template` with `options` will take, judged without
+   * running it: `{ parts, distinctParts, skinVoxels, leastWork,
+   * leastSeconds, overLimit }`, or null for the curvature descriptor. A
+   * page asks with it before a search that would run for minutes.
+   */
+  plan(template, options = {}) {
+    checkSearch(template, undefined, 'plan');
+    const settings = plainOptions(options, 'match');
+    return camelCaseKeys(searching(this, template, (scene, inner) => call(() => scene.plan(inner, settings))));
+  }
+  /**
    * Like `match`, with the volume and harmonics layers on WebGPU where
    * `navigator.gpu` gives a hardware adapter (a fallback, software one only
    * with `allowSoftware`): the same instances. Resolves to the report; its

@@ -6,9 +6,11 @@
 // In:  {type: 'init', id, build, threads, backend}
 //      {type: 'load', id, bytes, options}
 //      {type: 'check', id, template: {bytes, format} | {center, radius}}
+//      {type: 'plan', id, template, options}
 //      {type: 'match', id, template, options}
 //      {type: 'repeats', id, bytes, options}
 // Out: {type: 'ready', id, info} | {type: 'loaded', id, scene} | {type: 'checked', id}
+//      {type: 'planned', id, plan}
 //      {type: 'layer', id, stats} | {type: 'progress', id, progress} | {type: 'result', id, report}
 //      (a 'result' answers 'repeats' too)
 //      {type: 'error', id, error: {name, message}}
@@ -41,6 +43,14 @@ async function handle(message, send) {
     } else if (message.type === 'check') {
       makeTemplate(message.template).free();
       send({ type: 'checked', id });
+    } else if (message.type === 'plan') {
+      if (!scene) throw new Error('fast-reject: load a scene (loadScene) before planning a search of it');
+      const template = makeTemplate(message.template);
+      try {
+        send({ type: 'planned', id, plan: scene.plan(template, message.options) });
+      } finally {
+        template.free();
+      }
     } else if (message.type === 'match') {
       send({ type: 'result', id, report: await search(message, send) });
     } else if (message.type === 'repeats') {

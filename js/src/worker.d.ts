@@ -12,6 +12,7 @@ import type {
   RepeatsOptions,
   RepeatsReport,
   SceneOptions,
+  SearchPlan,
 } from './index.js';
 
 export { CancelledError, ThreadPoolError } from './index.js';
@@ -66,6 +67,8 @@ export class SearchWorker {
   loadScene(bytes: MeshBytes, options?: SceneOptions, control?: { signal?: AbortSignal; onProgress?: ProgressCallback }): Promise<SceneInfo>;
   /** Parses a template and forgets it: rejects with the reason a search with it would fail at once (a broken file). */
   checkTemplate(template: TemplateSource): Promise<void>;
+  /** What searching the loaded scene for `template` will take, judged without running it (`Scene.plan`); null for the curvature descriptor. */
+  plan(template: TemplateSource, options?: MatchOptions): Promise<SearchPlan | null>;
   /** Searches the loaded scene; rejects with a `CancelledError` when cancelled, an `Error` on bad input. */
   match(template: TemplateSource, options?: MatchOptions, control?: MatchControl): Promise<MatchReport>;
   /** Finds the parts a mesh file holds twice or more, without a template, in the worker; the loaded scene stays. */

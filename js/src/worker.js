@@ -254,6 +254,22 @@ export class SearchWorker {
   }
 
   /**
+   * What searching the loaded scene for `template` with `options` will
+   * take, judged without running it (`Scene.plan` of the package): the
+   * parts to search and the least time, or null for the curvature
+   * descriptor.
+   */
+  plan(template, options = {}) {
+    let message;
+    try {
+      message = { type: 'plan', template: templateSpec(template), options: plainOptions(options, 'match') };
+    } catch (error) {
+      return Promise.reject(error);
+    }
+    return this.#request(message).then((reply) => reply.plan);
+  }
+
+  /**
    * Searches the loaded scene for `template`: `{bytes, format?}` (a model)
    * or `{center, radius}` (the part of the scene inside a sphere).
    * `onLayer(stats)` after every cascade layer, `onProgress({ step,

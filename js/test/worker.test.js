@@ -71,6 +71,32 @@ test('a search in the worker finds what the calling thread finds, with progress 
   }
 });
 
+test('a plan judges the search before it runs: the parts it searches, the least time, none for curvature', async () => {
+  await init();
+  const scene = Scene.fromBytes(sceneBytes);
+  const template = Template.fromBytes(templateBytes);
+  const search = new SearchWorker({ backend: 'cpu' });
+  try {
+    const here = scene.plan(template);
+    assert.ok(here.distinctParts >= 1 && here.distinctParts <= here.parts && here.parts <= scene.parts, JSON.stringify(here));
+    assert.ok(here.skinVoxels > 0 && here.leastWork > 0 && here.leastSeconds > 0 && here.overLimit === false);
+    assert.equal(scene.plan(template, { descriptor: 'curvature' }), null);
+    assert.equal(scene.plan(template, { maxPartWork: here.leastWork / 2 }).overLimit, true);
+    assert.throws(() => scene.plan({}), /needs a Template/);
+    await assert.rejects(search.plan({ bytes: templateBytes }), /load a scene/);
+    await search.loadScene(sceneBytes);
+    assert.deepEqual(await search.plan({ bytes: templateBytes }), here);
+    // The search goes through the parts the plan named.
+    const totals = [];
+    await search.match({ bytes: templateBytes }, {}, { onProgress: ({ step, total }) => void totals.push([step, total]) });
+    assert.deepEqual(totals.at(-1), ['parts', here.distinctParts]);
+  } finally {
+    search.terminate();
+    template.free();
+    scene.free();
+  }
+});
+
 test('every way of cancelling rejects with a CancelledError, and the scene stays loaded', async () => {
   const search = new SearchWorker({ backend: 'cpu' });
   try {

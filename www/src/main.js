@@ -24,7 +24,10 @@ const state = {
   build: null,
   /** Whether the option fields were set from the core's defaults. */
   defaultsApplied: false,
-  /** 'starting' | 'loading' | 'ready' | 'searching' | 'done' | 'cancelled' | 'error' (also on <body data-status>). */
+  /**
+   * 'starting' | 'loading' | 'ready' | 'searching' | 'asked' (a long search
+   * waits for a yes) | 'done' | 'cancelled' | 'error' (also on <body data-status>).
+   */
   status: 'starting',
   /** The last message shown to the user (tests wait on it). */
   lastMessage: null,
@@ -467,7 +470,12 @@ function showThresholds() {
   for (const id of Object.values(POSE_OPTIONS)) $(id).disabled = descriptor() === 'curvature';
 }
 
-async function runSearch() {
+/**
+ * Searches the scene for the current template. A search judged to take
+ * longer than `longSearchSeconds` first asks (`approved` skips the
+ * question: the person said yes).
+ */
+async function runSearch({ approved = false } = {}) {
   if (!state.scene) {
     showMessage('Open a scene first.', 'info');
     return;
@@ -511,6 +519,17 @@ async function runSearch() {
   state.longNotice = null;
   state.progress = null;
   try {
+    if (!approved && options.descriptor !== 'curvature') {
+      const preparing = step;
+      showStep('Preparing: judging the size of the search');
+      const plan = await matcher.plan(template, options);
+      if (generation !== state.generation) return;
+      if (plan && plan.leastSeconds > state.longSearchSeconds) {
+        askBeforeSearching(plan);
+        return;
+      }
+      showStep(preparing);
+    }
     const onLayer = (stats) => {
       if (generation !== state.generation) return;
       layers.push(stats);
@@ -541,7 +560,8 @@ async function runSearch() {
       // Said once, as soon as the pace is known: a sphere placed by
       // mistake on a whole building would otherwise run for minutes.
       const secondsLeft = pace ? (pace * (total - done)) / 1000 : 0;
-      if (!state.longNotice && now - first.at >= LONG_SEARCH_PACE_MS && secondsLeft > state.longSearchSeconds) {
+      const longNow = !approved && !state.longNotice && now - first.at >= LONG_SEARCH_PACE_MS;
+      if (longNow && secondsLeft > state.longSearchSeconds) {
         state.longNotice =
           `This search will take about ${formatSeconds(secondsLeft)} more: ${(total - done).toLocaleString()} ` +
           `${PROGRESS_WORDS[what] ?? what} of the scene are left to search. A smaller sphere, or a template of ` +
@@ -584,6 +604,25 @@ async function runSearch() {
       $('cancel-button').disabled = true;
     }
   }
+}
+
+/**
+ * Says that the search `plan` judged will take long, and starts it only
+ * when the person says yes: a sphere dropped on a whole building by
+ * mistake would otherwise run for minutes before they learn of it.
+ */
+function askBeforeSearching(plan) {
+  const copies = plan.parts - plan.distinctParts;
+  const copied = copies > 0 ? ` (${copies.toLocaleString()} more copy one of them and are not searched again)` : '';
+  $('progress-text').textContent = 'Not started: the search waits for a yes.';
+  setStatus('asked');
+  showMessage(
+    `This search will take about ${formatSeconds(plan.leastSeconds)} or more: ` +
+      `${plan.distinctParts.toLocaleString()} different parts of the scene are large enough to hold the template${copied}, ` +
+      'and each is searched on its own. A smaller sphere, or a template of fewer parts, searches less.',
+    'info',
+    { label: 'Search anyway', run: () => runSearch({ approved: true }) },
+  );
 }
 
 /** How long the pace is watched before the time left is trusted. */

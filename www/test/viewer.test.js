@@ -559,6 +559,24 @@ test('viewer: templates — a broken one keeps the previous, one dropped on the 
     assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
     // The demo mug's poses carry the ghosts.
     assert.equal(await page.evaluate(() => globalThis.viewer.ghosts), 3);
+    // A search judged longer than the page allows asks first, and runs on a yes.
+    await page.evaluate(() => {
+      globalThis.viewer.longSearchSeconds = 0;
+    });
+    await page.click('#search-button');
+    await page.waitForFunction(() => globalThis.viewer.status === 'asked', null, { timeout: 60_000, polling: 100 });
+    assert.match(
+      await page.evaluate(() => globalThis.viewer.lastMessage),
+      /^This search will take about \d+ s or more: \d+ different parts of the scene are large enough to hold the template/,
+    );
+    assert.equal(await page.locator('#match-count').textContent(), '');
+    assert.equal(await page.locator('#message-action').textContent(), 'Search anyway');
+    await page.click('#message-action');
+    await waitForStatus(page, 'done');
+    assert.equal((await page.evaluate(() => globalThis.viewer.report)).instances.length, 3);
+    await page.evaluate(() => {
+      globalThis.viewer.longSearchSeconds = 30;
+    });
 
     // zoo-bunny, and its template dropped on the view's right half.
     await page.setInputFiles('#scene-input', resolve(zooBunny, 'scene.glb'));
