@@ -4,8 +4,8 @@
 # its types (the JS entry included; a wrong call must be rejected), Vite
 # bundles it for the browser with both wasm builds as assets, the README's
 # worker example runs as written in Node and, bundled by Vite, in headless
-# Chromium, and a search runs under the Vite dev server and in an esbuild
-# bundle made by the README's recipe.
+# Chromium, and a search runs under the Vite dev server, in an esbuild
+# bundle made by the README's recipe, and under webpack's dev server and build.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 tools=$repo/js/node_modules
@@ -324,3 +324,78 @@ try {
 }
 JS
 timeout 300 node esbuild-check.mjs
+
+echo "-- webpack: its defaults (the plain build, saying why), then the README's config under its dev server and built (threads)"
+awk '/^\/\/ webpack.config.js/ { found = 1; next } found && /^```/ { exit } found' \
+  node_modules/fast-reject/README.md > webpack-readme.config.js
+test -s webpack-readme.config.js || { echo "no webpack config in the package README" >&2; exit 1; }
+echo '<!doctype html><script type="module" src="/main.js"></script>' > public/webpack.html
+cat > webpack-check.mjs <<JS
+import webpack from '$tools/webpack/lib/index.js';
+import WebpackDevServer from '$tools/webpack-dev-server/lib/Server.js';
+import { cpSync } from 'node:fs';
+import { startServer } from '$repo/www/server.js';
+import { launchChromium } from '$repo/js/test/browser.js';
+import readme from './webpack-readme.config.js';
+
+/** The page's search under webpack's dev server, built with \`config\` around the test's entry. */
+async function serve(config) {
+  const compiler = webpack({
+    ...config,
+    mode: 'development',
+    entry: './src/dev.js',
+    output: { ...config.output, filename: 'main.js', path: '$scratch/app/webpack-dist' },
+    infrastructureLogging: { level: 'error' },
+    stats: 'errors-only',
+  });
+  const devServer = config.devServer ?? {};
+  const statics = [...(devServer.static ?? []), { directory: 'public', publicPath: '/' }];
+  const server = new WebpackDevServer({ ...devServer, host: '127.0.0.1', port: 5275, static: statics, hot: false, client: false }, compiler);
+  await server.start();
+  const browser = await launchChromium();
+  try {
+    const page = await browser.newPage();
+    await page.goto('http://127.0.0.1:5275/webpack.html');
+    return await page.evaluate(() => globalThis.devResult);
+  } finally {
+    await browser.close();
+    await server.stop();
+  }
+}
+
+// webpack's defaults on a cross-origin isolated page: the pool is tried, and fails.
+const defaults = await serve({ devServer: { headers: readme.devServer.headers } });
+if (defaults.build !== 'plain' || defaults.found !== 3 || !/failed to start|did not start/.test(defaults.fallback) || defaults.seconds > 15) {
+  throw new Error('webpack defaults: ' + JSON.stringify(defaults));
+}
+console.log('ok: with webpack defaults, auto ran the plain build after ' + defaults.seconds.toFixed(1) + ' s: ' + defaults.fallback);
+const threads = await serve(readme);
+if (threads.build !== 'threads' || threads.found !== 3 || threads.fallback !== null) throw new Error('webpack, README config: ' + JSON.stringify(threads));
+console.log('ok: under webpack serve with the README config the threaded build found 3 mugs in ' + threads.seconds.toFixed(1) + ' s');
+
+// webpack build with the README's config, the package's files copied beside the bundle as it says.
+const dist = '$scratch/app/webpack-build';
+const { devServer, ...built } = readme;
+await new Promise((resolve, reject) => {
+  webpack({ ...built, mode: 'production', entry: './src/dev.js', output: { ...built.output, filename: 'main.js', path: dist } }).run(
+    (error, stats) => (error || stats.hasErrors() ? reject(error ?? new Error(stats.toString('errors-only'))) : resolve()),
+  );
+});
+for (const file of ['search-thread.js', 'index.js', 'errors.js', 'plain', 'threads']) {
+  cpSync('node_modules/fast-reject/' + file, dist + '/' + file, { recursive: true });
+}
+cpSync('public', dist, { recursive: true });
+const { server, origin } = await startServer({ port: 0, roots: { '/': dist } });
+const browser = await launchChromium();
+try {
+  const page = await browser.newPage();
+  await page.goto(origin + '/webpack.html');
+  const bundled = await page.evaluate(() => globalThis.devResult);
+  if (bundled.build !== 'threads' || bundled.found !== 3) throw new Error('webpack build: ' + JSON.stringify(bundled));
+  console.log('ok: the webpack build, served cross-origin isolated, ran the threaded build and found 3 mugs in ' + bundled.seconds.toFixed(1) + ' s');
+} finally {
+  await browser.close();
+  server.close();
+}
+JS
+timeout 300 node webpack-check.mjs
