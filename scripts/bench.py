@@ -9,6 +9,10 @@
   python3 scripts/bench.py scale [--runs 1] [--python PY]
       generated scenes of many parts (PY needs numpy and trimesh for the
       building generator; the tetrahedra need nothing)
+  python3 scripts/bench.py plan [--runs 3] [--python PY]
+      each shared scene and generated scene of `scale`, planned (`match
+      --plan`) and searched, whole processes: what the plan costs and how
+      its least time compares with the search's
   python3 scripts/bench.py hostile
       the hostile inputs of scripts/hostile-sweep.py, under 2 GiB and 20 s
   python3 scripts/bench.py wasm
@@ -226,6 +230,50 @@ def scale(a):
     print_stages(rows, "input", skin=False)
 
 
+def plan(a):
+    keep = Path(a.keep)
+    keep.mkdir(parents=True, exist_ok=True)
+    load_sweep().generated(keep)
+    inputs = [(folder.name, scene_args(folder)[0]) for folder in scene_folders()]
+    for name, args, make in scale_inputs(keep, a.python):
+        if make and not (Path(make[3]) / "scene.glb").exists():
+            subprocess.run([str(x) for x in make], check=True, stdout=subprocess.DEVNULL)
+        inputs.append((name, args))
+    # A sphere too small dropped on the distinct building: a fifth of the
+    # finest lattice's parts, all searched.
+    distinct = keep / "distinct-10000"
+    at = [row[3] for row in json.loads((distinct / "truth.json").read_text())["instances"][0]["transform"][:3]]
+    inputs.append(("a 0.12 m sphere on the 10 000 distinct parts",
+                   ["match", distinct / "scene.glb", f"--select={','.join(f'{x:.4f}' for x in at)},0.12"]))
+    print(f"Seconds, the median of {a.runs} runs, each a whole process on all cores (loading the scene "
+          "included): `match --plan` and the search; least is the plan's least time, searched the "
+          "search's own stages (its total less the load).")
+    print()
+    print("| input | parts (distinct) | plan process | least | search process | searched | searched / least |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for name, args in inputs:
+        planned, searched = [], []
+        for _ in range(a.runs):
+            status, seconds, _, out, err = measure([BIN, *args, "--plan", "--json"], a.timeout)
+            if status != 0:
+                break
+            planned.append((seconds, json.loads(out)))
+            status, seconds, _, out, err = measure([BIN, *args, "--json"], a.timeout)
+            if status != 0:
+                break
+            searched.append((seconds, json.loads(out)))
+        if status != 0 or not planned or planned[0][1] is None:
+            why = "over the time limit" if status == "timeout" else (err.strip().splitlines() or ["no plan"])[-1]
+            print(f"| {name} | {why[:90]} | | | | | |")
+            continue
+        med = statistics.median
+        p = planned[0][1]
+        work = med(r["timings_ms"]["total"] - r["timings_ms"].get("load", 0.0) for _, r in searched) / 1e3
+        least = p["least_seconds"]
+        print(f"| {name} | {p['parts']} ({p['distinct_parts']}) | {med(t for t, _ in planned):.2f} | {least:.2f} | "
+              f"{med(t for t, _ in searched):.2f} | {work:.2f} | {work / least:.1f} |")
+
+
 def hostile(a):
     sweep = load_sweep()
     keep = Path(a.keep)
@@ -301,6 +349,11 @@ def main(argv):
     s.add_argument("--timeout", type=float, default=600.0)
     s.add_argument("--keep", default=str(ROOT / "target/bench-inputs"))
     s.add_argument("--python", default=os.environ.get("FAST_REJECT_PYTHON", sys.executable))
+    s = sub.add_parser("plan")
+    s.add_argument("--runs", type=int, default=3)
+    s.add_argument("--timeout", type=float, default=600.0)
+    s.add_argument("--keep", default=str(ROOT / "target/bench-inputs"))
+    s.add_argument("--python", default=os.environ.get("FAST_REJECT_PYTHON", sys.executable))
     s = sub.add_parser("hostile")
     s.add_argument("--keep", default=str(ROOT / "target/bench-inputs"))
     sub.add_parser("wasm")
@@ -311,8 +364,8 @@ def main(argv):
     a = p.parse_args(argv)
     if a.what != "update":
         header(argv)
-    {"scores": scores, "stages": stages, "scale": scale, "hostile": hostile, "wasm": wasm, "frames": frames,
-     "update": update}[a.what](a)
+    {"scores": scores, "stages": stages, "scale": scale, "plan": plan, "hostile": hostile, "wasm": wasm,
+     "frames": frames, "update": update}[a.what](a)
 
 
 if __name__ == "__main__":
