@@ -163,7 +163,9 @@ export interface SearchPlan {
   skinVoxels: number;
   /** The least work the search takes, in about nanoseconds of one core (the unit of `maxPartWork`). */
   leastWork: number;
-  /** `leastWork` shared by the module's threads, in seconds: about the least the search takes; parts like the template take several times more. */
+  /** The threads the search runs on: the module's. */
+  threads: number;
+  /** `leastWork` shared by those threads, in seconds: about the least the search takes; parts like the template take several times more. */
   leastSeconds: number;
   /** Whether the search will be refused for its work (`maxPartWork`) even at the least. */
   overLimit: boolean;

@@ -386,7 +386,7 @@ export class Scene extends Handle {
   }
   /**
    * What a search for `template` with `options` will take, judged without
-   * running it: `{ parts, distinctParts, skinVoxels, leastWork,
+   * running it: `{ parts, distinctParts, skinVoxels, leastWork, threads,
    * leastSeconds, overLimit }`, or null for the curvature descriptor. A
    * page asks with it before a search that would run for minutes.
    */

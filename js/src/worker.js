@@ -260,13 +260,11 @@ export class SearchWorker {
    * descriptor.
    */
   plan(template, options = {}) {
-    let message;
-    try {
-      message = { type: 'plan', template: templateSpec(template), options: plainOptions(options, 'match') };
-    } catch (error) {
-      return Promise.reject(error);
-    }
-    return this.#request(message).then((reply) => reply.plan);
+    return this.#controlled(
+      () => ({ type: 'plan', template: templateSpec(template), options: plainOptions(options, 'match') }),
+      undefined,
+      {},
+    ).then((reply) => reply.plan);
   }
 
   /**

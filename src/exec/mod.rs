@@ -40,6 +40,15 @@ impl Threads {
         cfg!(feature = "parallel") && self == Threads::Parallel
     }
 
+    /// How many threads the work runs on.
+    pub fn count(self) -> usize {
+        #[cfg(feature = "parallel")]
+        if self.is_parallel() {
+            return rayon::current_num_threads();
+        }
+        1
+    }
+
     /// Calls `f` on consecutive sub-ranges of `0..len` of about `grain` items.
     pub fn for_each_range<F>(self, len: usize, grain: usize, f: F)
     where

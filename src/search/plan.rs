@@ -24,22 +24,16 @@ pub struct SearchPlan {
     /// (the unit of [`MatchOptions::max_part_work`]): its skin voxels
     /// built. Parts like the template take several times more.
     pub least_work: f64,
-}
-
-impl SearchPlan {
-    /// Whether the search is refused for its work even at the least
-    /// (`max_part_work`).
-    pub fn over_limit(&self, options: &MatchOptions) -> bool {
-        self.least_work > options.max_part_work
-    }
-
-    /// The least work shared by `threads`, in seconds: about the least
+    /// The threads the search runs on ([`MatchOptions::backend`]).
+    pub threads: usize,
+    /// The least work shared by the threads, in seconds: about the least
     /// wall time the search takes (the work's nanoseconds are those of the
     /// machine that weighed it; natively here, a search of distinct parts
-    /// unlike the template took 0.7-0.9 of it, under WebAssembly more).
-    pub fn least_seconds(&self, threads: usize) -> f64 {
-        self.least_work / 1e9 / threads.max(1) as f64
-    }
+    /// unlike the template took 0.6-0.9 of it, under WebAssembly more).
+    pub least_seconds: f64,
+    /// Whether the search is refused for its work even at the least
+    /// (`max_part_work`).
+    pub over_limit: bool,
 }
 
 /// What searching `scene` for `source` will take, judged without running
@@ -125,12 +119,17 @@ mod tests {
             "planned {} built {built}",
             plan.skin_voxels
         );
-        assert!(plan.least_work > 0.0 && !plan.over_limit(&options));
+        assert!(plan.least_work > 0.0 && !plan.over_limit);
         let tight = MatchOptions {
             max_part_work: plan.least_work / 2.0,
             ..options
         };
-        assert!(plan.over_limit(&tight));
+        assert!(
+            super::plan(&scene, &source, &tight)
+                .unwrap()
+                .unwrap()
+                .over_limit
+        );
     }
 
     #[test]

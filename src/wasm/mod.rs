@@ -239,10 +239,7 @@ pub fn find_repeats_in(
     let families = split_by_material(&model, &mesh, &sources, families);
     progress.step_done()?;
     let repeats_ms = now_ms() - start;
-    let text = serde_json::to_string(&families)
-        .map_err(|e| JsError::new(&format!("cannot encode the families: {e}")))?;
-    let parsed = js_sys::JSON::parse(&text)
-        .map_err(|e| JsError::new(&format!("cannot decode the families: {}", describe_js(&e))))?;
+    let parsed = json_value(&families, "families")?;
     let timings = Object::new();
     set(&timings, "load", &JsValue::from(load_ms));
     set(&timings, "repeats", &JsValue::from(repeats_ms));
@@ -433,42 +430,20 @@ impl SceneHandle {
     }
 
     /// What a search for `template` with `options` will take, judged
-    /// without running it (see [`crate::search::SearchPlan`]), with
-    /// `least_seconds`: its least work shared by the module's threads. Null
-    /// for the curvature descriptor. A `resolution` other than the
-    /// scene's voxelizes it again, as the search would.
+    /// without running it (see [`crate::search::SearchPlan`]), on the
+    /// module's threads; null for the curvature descriptor. A `resolution`
+    /// other than the scene's voxelizes it again, as the search would.
     pub fn plan(
         &mut self,
         template: &TemplateHandle,
         options: JsValue,
     ) -> Result<JsValue, JsError> {
         let settings = self.settings_for_search(&options)?;
-        let plan = crate::search::plan(&self.scene, &template.source, &settings.options)
-            .map_err(js_error)?;
-        let Some(plan) = plan else {
-            return Ok(JsValue::NULL);
-        };
-        let object = Object::new();
-        set(&object, "parts", &JsValue::from(plan.parts as f64));
-        set(
-            &object,
-            "distinct_parts",
-            &JsValue::from(plan.distinct_parts as f64),
-        );
-        set(
-            &object,
-            "skin_voxels",
-            &JsValue::from(plan.skin_voxels.round()),
-        );
-        set(&object, "least_work", &JsValue::from(plan.least_work));
-        let seconds = plan.least_seconds(thread_count());
-        set(&object, "least_seconds", &JsValue::from(seconds));
-        set(
-            &object,
-            "over_limit",
-            &JsValue::from(plan.over_limit(&settings.options)),
-        );
-        Ok(object.into())
+        match crate::search::plan(&self.scene, &template.source, &settings.options) {
+            Ok(Some(plan)) => json_value(&plan, "plan"),
+            Ok(None) => Ok(JsValue::NULL),
+            Err(error) => Err(js_error(error)),
+        }
     }
 
     /// [`Self::run_match`] with the volume and harmonics layers on the
@@ -729,15 +704,19 @@ fn progress_to_js(progress: &Progress) -> JsValue {
     object.into()
 }
 
+/// `value` as plain JS data in the CLI's JSON shape (snake_case keys).
+fn json_value(value: &impl serde::Serialize, what: &str) -> Result<JsValue, JsError> {
+    let text = serde_json::to_string(value)
+        .map_err(|e| JsError::new(&format!("cannot encode the {what}: {e}")))?;
+    js_sys::JSON::parse(&text)
+        .map_err(|e| JsError::new(&format!("cannot decode the {what}: {}", describe_js(&e))))
+}
+
 /// The report as a plain object in the CLI's JSON shape, plus typed arrays
 /// for drawing: `instancePositions` (x, y, z per instance, best first) and
 /// `highlightRadius` (r_k: the ball each instance occupies).
 fn report_to_js(report: &MatchReport) -> Result<JsValue, JsError> {
-    let text = serde_json::to_string(report)
-        .map_err(|e| JsError::new(&format!("cannot encode the report: {e}")))?;
-    let object: Object = js_sys::JSON::parse(&text)
-        .map_err(|e| JsError::new(&format!("cannot decode the report: {}", describe_js(&e))))?
-        .unchecked_into();
+    let object: Object = json_value(report, "report")?.unchecked_into();
     let positions: Vec<f64> = report.instances.iter().flat_map(|i| i.position).collect();
     set(
         &object,

@@ -185,11 +185,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
         if args.plan {
             progress.phase("planning");
             let plan = plan(&scene, &source, &options).map_err(|e| described(&e))?;
-            let threads = match backend {
-                Threads::Serial => 1,
-                _ => rayon::current_num_threads(),
-            };
-            return Ok(Outcome::Plan(plan, threads));
+            return Ok(Outcome::Plan(plan));
         }
         progress.phase("searching");
         let mut report = match &gpu {
@@ -217,9 +213,7 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     progress.finish();
     let report = match report {
         Outcome::Report(report) => report,
-        Outcome::Plan(plan, threads) => {
-            return print_plan(plan.as_ref(), threads, &options, args.json);
-        }
+        Outcome::Plan(plan) => return print_plan(plan.as_ref(), &options, args.json),
     };
     // Said in the table, where a reader would otherwise wonder where auto ran.
     let note = (args.backend == Compute::Auto && gpu.is_none())
@@ -227,41 +221,22 @@ fn run_match(args: MatchArgs) -> Result<(), String> {
     print_report(&report, args.json, descriptor, note)
 }
 
-/// What `match` did: searched, or only planned (`--plan`, on so many threads).
+/// What `match` did: searched, or only planned (`--plan`).
 enum Outcome {
     Report(MatchReport),
-    Plan(Option<SearchPlan>, usize),
+    Plan(Option<SearchPlan>),
 }
 
-/// `--plan`'s output: the plan and the least time on `threads`, or a line
-/// (JSON null) for a search with no plan.
-fn print_plan(
-    plan: Option<&SearchPlan>,
-    threads: usize,
-    options: &MatchOptions,
-    json: bool,
-) -> Result<(), String> {
-    #[derive(serde::Serialize)]
-    struct Shown<'p> {
-        #[serde(flatten)]
-        plan: &'p SearchPlan,
-        threads: usize,
-        least_seconds: f64,
-        over_limit: bool,
-    }
-    let shown = plan.map(|plan| Shown {
-        plan,
-        threads,
-        least_seconds: plan.least_seconds(threads),
-        over_limit: plan.over_limit(options),
-    });
-    let text = match (json, shown) {
-        (true, shown) => serde_json::to_string(&shown).map_err(|e| e.to_string())?,
+/// `--plan`'s output: the plan, or a line (JSON null) for a search with no
+/// plan.
+fn print_plan(plan: Option<&SearchPlan>, options: &MatchOptions, json: bool) -> Result<(), String> {
+    let text = match (json, plan) {
+        (true, plan) => serde_json::to_string(&plan).map_err(|e| e.to_string())?,
         (false, None) => {
             "no plan: the curvature search's work is the welded surface's vertices".into()
         }
         (false, Some(s)) => {
-            let copies = s.plan.parts - s.plan.distinct_parts;
+            let copies = s.parts - s.distinct_parts;
             let refused = match s.over_limit {
                 true => "\nthe search would be refused: its least work passes --max-part-work",
                 false => "",
@@ -269,13 +244,14 @@ fn print_plan(
             format!(
                 "parts that can hold a copy: {} ({} distinct, searched; {copies} copies of them)\n\
                  skin voxels of the distinct parts: about {:.0}\n\
-                 time: about {:.2} s or more on {threads} threads (least work {:.3e} of --max-part-work {:.3e}); \
+                 time: about {:.2} s or more on {} threads (least work {:.3e} of --max-part-work {:.3e}); \
                  parts like the template take several times more{refused}",
-                s.plan.parts,
-                s.plan.distinct_parts,
-                s.plan.skin_voxels,
+                s.parts,
+                s.distinct_parts,
+                s.skin_voxels,
                 s.least_seconds,
-                s.plan.least_work,
+                s.threads,
+                s.least_work,
                 options.max_part_work,
             )
         }

@@ -38,6 +38,7 @@ use crate::repeats::{MirrorImages, congruent_parts};
 use crate::scene::{Parts, Scene};
 use crate::search::report::{GpuInfo, GridInfo, MatchReport, TemplateInfo, Timings};
 use crate::template::TemplateSource;
+use parts::parts_to_search;
 use place::moved_instance;
 pub(super) use plan::plan_voxels;
 use prepare::PartSearch;
@@ -57,7 +58,7 @@ pub(super) async fn search_voxels(
     let t0 = now_ms();
     let searcher = PartSearch::new(scene, source, options)?;
     let all_parts = scene.parts_for(searcher.template.parts());
-    let parts = searcher.searched_parts(&all_parts)?;
+    let parts = parts_to_search(scene, &searcher.template, &searcher.lattice, &all_parts)?;
     let template_ms = now_ms() - t0;
     // What a part's copies take from it, moved.
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();

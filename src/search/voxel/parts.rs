@@ -33,16 +33,6 @@ pub(super) struct Runner<'r, 'o> {
 }
 
 impl<'a> PartSearch<'a> {
-    /// The scene's parts large enough to hold a copy, with their indices;
-    /// fails when voxelizing them one by one would take far more than the
-    /// scene's own grid.
-    pub(super) fn searched_parts<'p>(
-        &self,
-        all: &'p [ScenePart],
-    ) -> Result<Vec<(usize, &'p ScenePart)>> {
-        parts_to_search(self.scene, &self.template, &self.lattice, all)
-    }
-
     /// What each part of `originals` (indices into `parts`) found, by
     /// index: side by side, in waves that fit the memory budget together.
     /// On the CPU a wave's parts share the threads; on a device a layer is
@@ -424,11 +414,6 @@ impl<'a> PartSearch<'a> {
     }
 }
 
-/// `window` cut down to where a candidate can lie, or `None` where none
-/// can. A candidate the vertex test passes lies within its farthest
-/// distance of a vertex, so of a triangle that meets the core grown by it:
-/// the core is cut down to those triangles' box, grown by it (a window over
-/// a terrain or a scan is mostly empty space above and below the sheet).
 /// The parts of `all` large enough to hold a copy of `template`, with
 /// their indices; fails when voxelizing them one by one on `lattice` would
 /// take far more than the scene's own grid.
@@ -448,6 +433,11 @@ pub(super) fn parts_to_search<'p>(
     Ok(parts)
 }
 
+/// `window` cut down to where a candidate can lie, or `None` where none
+/// can. A candidate the vertex test passes lies within its farthest
+/// distance of a vertex, so of a triangle that meets the core grown by it:
+/// the core is cut down to those triangles' box, grown by it (a window over
+/// a terrain or a scan is mostly empty space above and below the sheet).
 fn fitted_to_content(
     window: &Window,
     near: &NearVertices,

@@ -27,19 +27,23 @@ pub(in crate::search) fn plan_voxels(
     let lists: Vec<&[u32]> = parts.iter().map(|(_, p)| p.triangles()).collect();
     let copies = congruent_parts(scene.mesh(), &lists, options.backend, MirrorImages::Refused);
     let voxel = lattice.spec.voxel_size;
-    let mut plan = SearchPlan {
-        parts: parts.len(),
-        distinct_parts: 0,
-        skin_voxels: 0.0,
-        least_work: 0.0,
-    };
+    let (mut distinct_parts, mut skin_voxels, mut work) = (0, 0.0, 0.0);
     for ((_, part), copy) in parts.iter().zip(&copies) {
         if copy.is_none() {
-            let (skin, work) = least_work(part_voxel_work(scene.mesh(), part.triangles(), voxel));
-            plan.distinct_parts += 1;
-            plan.skin_voxels += skin;
-            plan.least_work += work;
+            let (skin, least) = least_work(part_voxel_work(scene.mesh(), part.triangles(), voxel));
+            distinct_parts += 1;
+            skin_voxels += skin;
+            work += least;
         }
     }
-    Ok(plan)
+    let threads = options.backend.count();
+    Ok(SearchPlan {
+        parts: parts.len(),
+        distinct_parts,
+        skin_voxels: skin_voxels.round(),
+        least_work: work,
+        threads,
+        least_seconds: work / 1e9 / threads as f64,
+        over_limit: work > options.max_part_work,
+    })
 }
