@@ -19,7 +19,7 @@ fn main() -> std::io::Result<()> {
     let attack_uri = hostile::TERMINAL_ATTACK
         .replace('\u{1b}', "\\u001b")
         .replace('\u{7}', "\\u0007");
-    let files: [(&str, Vec<u8>); 15] = [
+    let files: [(&str, Vec<u8>); 17] = [
         (
             "escape-absolute.gltf",
             hostile::gltf_with_buffer("/etc/passwd", 1 << 30).into_bytes(),
@@ -66,6 +66,15 @@ fn main() -> std::io::Result<()> {
         (
             "tetrahedra-jittered-20000.stl",
             hostile::jittered_tetrahedra(20_000, 2),
+        ),
+        // Nodes that glTF's matrices cannot hold as they are.
+        (
+            "boxes-hidden-flat-sheared.gltf",
+            hostile::hidden_flat_and_sheared_boxes().into_bytes(),
+        ),
+        (
+            "boxes-gpu-instanced.gltf",
+            hostile::gpu_instanced_boxes().into_bytes(),
         ),
         (
             "right-tetrahedron.stl",

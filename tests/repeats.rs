@@ -728,6 +728,106 @@ fn copies_drawn_in_other_materials_are_other_parts_and_keep_their_attributes() {
     assert_eq!(unmatched_triangles(&out, &mesh, 1e-5), 0);
 }
 
+/// Whether every node of a written GLB is placed as glTF allows: a matrix
+/// of perpendicular axes none of zero length (anything else is written
+/// as translation, rotation and scale).
+fn nodes_are_turns_and_scales(glb: &[u8]) -> Result<(), String> {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let json: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    for (n, node) in json["nodes"].as_array().unwrap().iter().enumerate() {
+        let Some(m) = node["matrix"].as_array() else {
+            continue;
+        };
+        let m: Vec<f64> = m.iter().map(|v| v.as_f64().unwrap()).collect();
+        let axes: Vec<Vec3> = (0..3)
+            .map(|c| Vec3::new(m[4 * c], m[4 * c + 1], m[4 * c + 2]))
+            .collect();
+        if axes.iter().any(|a| a.length() == 0.0) {
+            return Err(format!("node {n}: a singular matrix {m:?}"));
+        }
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let cos = axes[i].normalize().dot(axes[j].normalize());
+            if cos.abs() > 1e-5 {
+                return Err(format!("node {n}: a sheared matrix {m:?}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn hidden_flattened_and_sheared_nodes_are_written_as_gltf_allows_and_drawn_as_before() {
+    use fast_reject::mesh::io::model::{ModelMesh, ModelNode, trs};
+    use glam::{DMat3, DMat4, DQuat, DVec3};
+    let rows = |m: DMat4| -> Matrix { m.transpose().to_cols_array_2d() };
+    let turn = |k: f64| DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.7 * k);
+    let at = |x: f64| DVec3::new(6.0 * x, 0.5 * x, 0.0);
+    let placed = |k: f64, scale: DVec3| {
+        rows(DMat4::from_scale_rotation_translation(
+            scale,
+            turn(k),
+            at(k),
+        ))
+    };
+    // A non-uniform scale on a parent over a turned child: a shear.
+    let sheared = rows(
+        DMat4::from_translation(at(5.0))
+            * DMat4::from_scale(DVec3::new(2.0, 1.0, 1.0))
+            * DMat4::from_mat3(DMat3::from_rotation_z(0.5)),
+    );
+    let placements = [
+        placed(0.0, DVec3::ONE),
+        placed(1.0, DVec3::ONE),
+        placed(2.0, DVec3::ONE),
+        placed(3.0, DVec3::ZERO),
+        placed(4.0, DVec3::new(1.0, 1.0, 0.0)),
+        sheared,
+    ];
+    assert!(trs(&sheared).is_none());
+    for (k, p) in placements[..5].iter().enumerate() {
+        let t = trs(p).unwrap_or_else(|| panic!("placement {k} is a turn and a scale"));
+        let back = rows(DMat4::from_scale_rotation_translation(
+            DVec3::from_array(t.scale),
+            DQuat::from_array(t.rotation),
+            DVec3::from_array(t.translation),
+        ));
+        for (a, b) in back.iter().flatten().zip(p.iter().flatten()) {
+            assert!((a - b).abs() < 1e-9, "placement {k}: {back:?} for {p:?}");
+        }
+    }
+    let model = Model {
+        meshes: vec![ModelMesh {
+            name: Some("cube".into()),
+            primitives: vec![textured_cube()],
+        }],
+        nodes: placements
+            .iter()
+            .enumerate()
+            .map(|(k, p)| ModelNode {
+                name: Some(format!("cube {k}")),
+                mesh: 0,
+                placements: vec![*p],
+            })
+            .collect(),
+        ..Model::default()
+    };
+    let (mesh, sources) = model.placed().unwrap();
+    let families = find_repeats(&mesh, Threads::Serial);
+    assert_eq!(families.len(), 1, "the three whole cubes");
+    for placement in [Placement::Nodes, Placement::GpuInstancing] {
+        let instanced = instanced_model(&model, &mesh, &sources, &families, placement);
+        let written = write_glb(&instanced.model).unwrap();
+        nodes_are_turns_and_scales(&written).unwrap();
+        let (back, _) = load_model(&written, None, &NoResources)
+            .unwrap()
+            .placed()
+            .unwrap();
+        assert_eq!(back.triangles().len(), mesh.triangles().len());
+        assert_eq!(unmatched_triangles(&mesh, &back, 1e-5), 0, "{placement:?}");
+        assert_eq!(unmatched_triangles(&back, &mesh, 1e-5), 0, "{placement:?}");
+    }
+}
+
 #[test]
 fn a_copy_rounding_would_flatten_is_kept_as_it_was() {
     // Coordinates near 1e36 with triangles a few units across (found by

@@ -305,6 +305,13 @@ pub enum Error {
         message: FileText,
     },
 
+    /// A model cannot be written as glTF as it stands.
+    #[error("the model cannot be written as glTF: {reason}")]
+    Unwritable {
+        /// What stands in the way, in words (names from the file escaped).
+        reason: FileText,
+    },
+
     /// The caller's observer asked to stop.
     #[error("the search was cancelled")]
     Cancelled,

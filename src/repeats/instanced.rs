@@ -17,7 +17,7 @@ use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::io::model::{
     Attribute, IDENTITY, Matrix, Model, ModelMesh, ModelNode, Primitive, TriangleSource,
-    determinant, multiply, transform_point,
+    determinant, multiply, transform_point, trs,
 };
 use crate::mesh::is_degenerate;
 
@@ -497,12 +497,32 @@ fn keep_the_rest(model: &Model, sources: &[TriangleSource], taken: &[bool], out:
     let mut whole: HashMap<usize, usize> = HashMap::new();
     for (n, node) in model.nodes.iter().enumerate() {
         let source = &model.meshes[node.mesh];
-        for (p, &at) in node.placements.iter().enumerate() {
+        for (p, &placement) in node.placements.iter().enumerate() {
+            // A shear (a non-uniform scale over a turned child) is no
+            // placement glTF can hold: its vertices are moved instead.
+            let (at, moved_by) = match trs(&placement) {
+                Some(_) => (placement, IDENTITY),
+                None => (IDENTITY, placement),
+            };
             let mesh = match lost.get(&(n as u32, p as u32)) {
-                None => *whole.entry(node.mesh).or_insert_with(|| {
+                None if moved_by == IDENTITY => *whole.entry(node.mesh).or_insert_with(|| {
                     out.meshes.push(source.clone());
                     out.meshes.len() - 1
                 }),
+                None => {
+                    out.meshes.push(ModelMesh {
+                        name: source.name.clone(),
+                        primitives: source
+                            .primitives
+                            .iter()
+                            .map(|primitive| {
+                                let all: Vec<u32> = (0..primitive.triangles.len() as u32).collect();
+                                moved_subset(primitive, &all, &moved_by)
+                            })
+                            .collect(),
+                    });
+                    out.meshes.len() - 1
+                }
                 Some(lost) => {
                     let primitives: Vec<Primitive> = source
                         .primitives
@@ -516,7 +536,7 @@ fn keep_the_rest(model: &Model, sources: &[TriangleSource], taken: &[bool], out:
                             let rest: Vec<u32> = (0..primitive.triangles.len() as u32)
                                 .filter(|&t| !gone[t as usize])
                                 .collect();
-                            (!rest.is_empty()).then(|| moved_subset(primitive, &rest, &IDENTITY))
+                            (!rest.is_empty()).then(|| moved_subset(primitive, &rest, &moved_by))
                         })
                         .collect();
                     if primitives.is_empty() {

@@ -353,3 +353,104 @@ pub fn jittered_tetrahedra(count: usize, seed: u64) -> Vec<u8> {
     }
     stl(&triangles)
 }
+
+/// A box 1 by 0.6 by 0.3 (8 corners, 12 triangles facing out), then three
+/// instance translations and rotations, in one buffer: the bytes of
+/// [`placed_boxes`].
+fn box_and_instances() -> (Vec<u8>, [usize; 4]) {
+    let mut b = Vec::new();
+    for k in 0..8 {
+        for (axis, size) in [1.0f32, 0.6, 0.3].into_iter().enumerate() {
+            let v = if k >> axis & 1 == 1 { size } else { 0.0 };
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let positions = b.len();
+    // Two triangles a face, counter-clockwise seen from outside.
+    let faces: [[u16; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    for [a, b2, c, d] in faces {
+        for i in [a, b2, c, a, c, d] {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    let indices = b.len();
+    for x in [0.0f32, 3.0, 0.0, 0.0, 6.0, 1.0, 0.0, 0.0, 9.0] {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+    let translations = b.len();
+    use std::f32::consts::FRAC_1_SQRT_2;
+    for q in [
+        0.0f32,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        0.0,
+        FRAC_1_SQRT_2,
+        FRAC_1_SQRT_2,
+        0.5,
+        0.5,
+        0.5,
+        0.5,
+    ] {
+        b.extend_from_slice(&q.to_le_bytes());
+    }
+    (b, [positions, indices, translations, 0])
+}
+
+/// The box of [`box_and_instances`] placed by `nodes` (JSON objects; mesh
+/// 0 is the box, accessors 2 and 3 three instances' translations and
+/// rotations), the scene's roots `roots`.
+pub fn placed_boxes(nodes: &str, roots: &str, extensions: &str) -> String {
+    let (bytes, [positions, indices, translations, _]) = box_and_instances();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[{roots}]}}],"nodes":[{nodes}],{extensions}
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+        "buffers":[{{"byteLength":{},"uri":"{}"}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{positions}}},
+          {{"buffer":0,"byteOffset":{positions},"byteLength":{}}},
+          {{"buffer":0,"byteOffset":{indices},"byteLength":{}}},
+          {{"buffer":0,"byteOffset":{translations},"byteLength":{}}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,0.6,0.3]}},
+          {{"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}},
+          {{"bufferView":2,"componentType":5126,"count":3,"type":"VEC3"}},
+          {{"bufferView":3,"componentType":5126,"count":3,"type":"VEC4"}}]}}"#,
+        bytes.len(),
+        data_uri(&bytes),
+        indices - positions,
+        translations - indices,
+        bytes.len() - translations,
+    )
+}
+
+/// Issue 86's invalid output: boxes placed three times plainly, once
+/// scaled to nothing (hidden), once flattened, and once under a parent
+/// with a non-uniform scale over a turned child (a shear).
+pub fn hidden_flat_and_sheared_boxes() -> String {
+    placed_boxes(
+        r#"{"mesh":0},{"mesh":0,"translation":[3,0,0],"rotation":[0,0,0.7071068,0.7071068]},
+        {"mesh":0,"translation":[6,0,0],"rotation":[0.5,0.5,0.5,0.5]},
+        {"mesh":0,"translation":[9,0,0],"scale":[0,0,0]},
+        {"mesh":0,"translation":[12,0,0],"scale":[1,1,0],"rotation":[0.5,0.5,0.5,0.5]},
+        {"translation":[15,0,0],"scale":[2,1,1],"children":[6]},
+        {"mesh":0,"rotation":[0,0,0.247404,0.968912]}"#,
+        "0,1,2,3,4,5",
+        "",
+    )
+}
+
+/// The box placed three times by one node with `EXT_mesh_gpu_instancing`.
+pub fn gpu_instanced_boxes() -> String {
+    placed_boxes(
+        r#"{"mesh":0,"extensions":{"EXT_mesh_gpu_instancing":{"attributes":{"TRANSLATION":2,"ROTATION":3}}}}"#,
+        "0",
+        r#""extensionsUsed":["EXT_mesh_gpu_instancing"],"extensionsRequired":["EXT_mesh_gpu_instancing"],"#,
+    )
+}

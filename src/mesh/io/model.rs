@@ -91,11 +91,20 @@ pub struct Image {
     pub data: ImageData,
 }
 
-/// An image's bytes, or a `data:` URI that holds them.
+/// An image's bytes, or a `data:` URI that holds them, or the reference
+/// to a file that could not be read.
 #[derive(Clone, Debug)]
 pub enum ImageData {
-    Bytes(Vec<u8>),
+    /// Shared by the images of one file (read once, written once).
+    Bytes(std::sync::Arc<Vec<u8>>),
     DataUri(String),
+    /// Missing, refused or too large: written back as the reference it
+    /// was, so that a viewer beside the file still finds it.
+    Unread {
+        uri: String,
+        /// Why, in words.
+        reason: String,
+    },
 }
 
 /// Where a placed triangle comes from.
@@ -236,4 +245,97 @@ pub fn multiply(a: &Matrix, b: &Matrix) -> Matrix {
         }
     }
     m
+}
+
+/// A placement as glTF's node properties hold one: translation, rotation
+/// (a unit quaternion x, y, z, w) and scale, whose x is negative for a
+/// mirror image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Trs {
+    pub translation: [f64; 3],
+    pub rotation: [f64; 4],
+    pub scale: [f64; 3],
+}
+
+impl Trs {
+    /// Whether a scale is zero: the placement flattens what it places, and
+    /// glTF accepts that only as node properties, not as a matrix.
+    pub fn is_singular(&self) -> bool {
+        self.scale.contains(&0.0)
+    }
+}
+
+/// How far from perpendicular (as a cosine) a placement's axes may be and
+/// still count as turned and scaled, not sheared: f32 rotations and their
+/// products stay far below it, and a reader that decomposes the matrix
+/// draws the same shape.
+const SHEAR_TOLERANCE: f64 = 1e-5;
+
+/// `m` as translation, rotation and scale, where it is one: `None` for a
+/// shear (a non-uniform scale over a turned child, which glTF forbids in a
+/// node) or a projection. An axis scaled to nothing (a hidden or flattened
+/// part) gets a rotation all the same, from the axes that remain.
+pub fn trs(m: &Matrix) -> Option<Trs> {
+    use glam::{DMat3, DQuat, DVec3};
+    if m[3] != [0.0, 0.0, 0.0, 1.0] || m.iter().flatten().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let columns = [0, 1, 2].map(|c| DVec3::new(m[0][c], m[1][c], m[2][c]));
+    let longest = columns.iter().map(|c| c.length()).fold(0.0, f64::max);
+    // An axis this much shorter than the longest is nothing in f64.
+    let scale = columns
+        .map(|c| c.length())
+        .map(|s| match s > longest * 1e-12 {
+            true => s,
+            false => 0.0,
+        });
+    let mut axes = [0, 1, 2].map(|c| match scale[c] > 0.0 {
+        true => Some(columns[c] / scale[c]),
+        false => None,
+    });
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        if let (Some(a), Some(b)) = (axes[i], axes[j])
+            && a.dot(b).abs() > SHEAR_TOLERANCE
+        {
+            return None;
+        }
+    }
+    // The missing axes, completing a right-handed frame: e_c = e_(c+1) x
+    // e_(c+2), the indices taken cyclically.
+    let known: Vec<usize> = (0..3).filter(|&c| axes[c].is_some()).collect();
+    let axes = match known[..] {
+        [] => [DVec3::X, DVec3::Y, DVec3::Z],
+        [i] => {
+            let a = axes[i].expect("known");
+            let b = a.any_orthonormal_vector();
+            let mut frame = [DVec3::ZERO; 3];
+            frame[i] = a;
+            frame[(i + 1) % 3] = b;
+            frame[(i + 2) % 3] = a.cross(b);
+            frame
+        }
+        [_, _] => {
+            let c = (0..3).find(|c| axes[*c].is_none()).expect("one missing");
+            axes[c] = Some(
+                axes[(c + 1) % 3]
+                    .expect("known")
+                    .cross(axes[(c + 2) % 3].expect("known")),
+            );
+            axes.map(|a| a.expect("complete"))
+        }
+        _ => axes.map(|a| a.expect("complete")),
+    };
+    let mut scale = scale;
+    let mut rotation = DMat3::from_cols(axes[0], axes[1], axes[2]);
+    // A mirror image: the x axis turned back, its scale negative.
+    if rotation.determinant() < 0.0 {
+        scale[0] = -scale[0];
+        rotation.x_axis = -rotation.x_axis;
+    }
+    let q = DQuat::from_mat3(&rotation).normalize();
+    Some(Trs {
+        translation: [m[0][3], m[1][3], m[2][3]],
+        rotation: q.to_array(),
+        scale,
+    })
 }

@@ -18,6 +18,7 @@ use crate::error::{Error, Format, Result};
 use crate::mesh::{Part, TriMesh};
 
 mod accessor;
+mod instancing;
 mod model;
 #[cfg(test)]
 mod tests;
@@ -46,7 +47,7 @@ pub(super) fn parse(
 ) -> Result<TriMesh> {
     let gltf = read_document(bytes)?;
     let mut loader = Loader::new(&gltf, bytes.len(), limit, resources);
-    loader.visit_scene(&gltf)?;
+    loader.visit_scene(&gltf, bytes)?;
     loader.place_all();
     TriMesh::with_parts(loader.positions, loader.triangles, loader.parts)
 }
@@ -93,6 +94,7 @@ impl<'a> Loader<'a> {
             triangles: Vec::new(),
             parts: Vec::new(),
             placements: Vec::new(),
+            instances: HashMap::new(),
             placed_vertices: 0,
             placed_triangles: 0,
         }
@@ -100,7 +102,8 @@ impl<'a> Loader<'a> {
 
     /// Visits the default scene's nodes (or, without scenes, every node
     /// that is nobody's child), collecting the placements.
-    fn visit_scene(&mut self, gltf: &gltf::Gltf) -> Result<()> {
+    fn visit_scene(&mut self, gltf: &gltf::Gltf, bytes: &[u8]) -> Result<()> {
+        self.instances = self.read_instancing(gltf, bytes)?;
         let roots: Vec<gltf::Node> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
             Some(scene) => scene.nodes().collect(),
             // No scene: every node that is nobody's child is a root.
@@ -240,15 +243,14 @@ const GEOMETRY_NEUTRAL: &[&str] = &[
 /// integers, which CAD and BIM exporters write to halve their files.
 fn check_required_extensions(required: &[String]) -> Result<()> {
     for name in required {
-        if name == "KHR_mesh_quantization" || GEOMETRY_NEUTRAL.contains(&name.as_str()) {
+        if [instancing::INSTANCING, "KHR_mesh_quantization"].contains(&name.as_str())
+            || GEOMETRY_NEUTRAL.contains(&name.as_str())
+        {
             continue;
         }
         let advice = match name.as_str() {
             "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
                 "its geometry is compressed, which is not read: export it without compression"
-            }
-            "EXT_mesh_gpu_instancing" => {
-                "it places meshes by instancing attributes, which are not read: export the instances as nodes"
             }
             _ => "an extension a file requires may change its geometry, and this one is not read",
         };
@@ -304,6 +306,9 @@ struct Loader<'a> {
     /// Each node's world transform, mesh and index, to be placed once all
     /// are counted.
     placements: Vec<(Mat4, usize, usize)>,
+    /// The instances of each node that places its mesh by
+    /// `EXT_mesh_gpu_instancing`, relative to the node.
+    instances: HashMap<usize, instancing::Instances>,
     placed_vertices: usize,
     placed_triangles: usize,
 }
@@ -337,11 +342,20 @@ impl Loader<'_> {
             // so that a small file instancing a mesh many times stops here
             // having allocated nothing for them.
             let m = &self.meshes[&mesh.index()];
-            self.placed_vertices += m.positions.len();
-            self.placed_triangles += m.triangles.len();
-            self.limit
-                .check(self.placed_vertices, self.placed_triangles)?;
-            self.placements.push((world, mesh.index(), node.index()));
+            let (vertices, triangles) = (m.positions.len(), m.triangles.len());
+            let instances = self.instances.remove(&node.index());
+            let count = instances.as_ref().map_or(1, |i| i.count);
+            for i in 0..count {
+                let world = match &instances {
+                    Some(list) => mul(&world, &list.matrix(i)),
+                    None => world,
+                };
+                self.placed_vertices += vertices;
+                self.placed_triangles += triangles;
+                self.limit
+                    .check(self.placed_vertices, self.placed_triangles)?;
+                self.placements.push((world, mesh.index(), node.index()));
+            }
         }
         for child in node.children() {
             self.visit(&child, &world, depth + 1)?;

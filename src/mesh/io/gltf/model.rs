@@ -40,7 +40,7 @@ pub(crate) fn read_model(
 ) -> Result<Model> {
     let gltf = read_document(bytes)?;
     let mut loader = Loader::new(&gltf, bytes.len(), limit, resources);
-    loader.visit_scene(&gltf)?;
+    loader.visit_scene(&gltf, bytes)?;
     let mut meshes = Vec::new();
     let mut mesh_of: HashMap<usize, usize> = HashMap::new();
     let mut nodes = Vec::new();
@@ -183,6 +183,8 @@ impl Loader<'_> {
                 .collect()
         };
         let mut images = Vec::new();
+        // An image file several images name is read once.
+        let mut files: HashMap<String, ImageData> = HashMap::new();
         for (i, mut image) in list("images").into_iter().enumerate() {
             let at = format!("image {i}");
             let view = image.get("bufferView").and_then(Value::as_u64);
@@ -192,10 +194,17 @@ impl Loader<'_> {
                     let view = gltf.views().nth(v as usize).ok_or_else(|| {
                         Error::malformed(Format::Gltf, &at, "its buffer view does not exist")
                     })?;
-                    ImageData::Bytes(self.view_bytes(&view, &at)?.to_vec())
+                    ImageData::Bytes(self.view_bytes(&view, &at)?.to_vec().into())
                 }
                 (None, Some(uri)) if uri.starts_with("data:") => ImageData::DataUri(uri),
-                (None, Some(uri)) => ImageData::Bytes(self.image_file(&uri)?),
+                (None, Some(uri)) => match files.get(&uri) {
+                    Some(data) => data.clone(),
+                    None => {
+                        let data = self.image_file(&uri);
+                        files.insert(uri, data.clone());
+                        data
+                    }
+                },
                 (None, None) => {
                     return Err(Error::malformed(
                         Format::Gltf,
@@ -222,28 +231,70 @@ impl Loader<'_> {
             }
             images.push(Image { json: image, data });
         }
+        let (materials, textures, samplers) =
+            (list("materials"), list("textures"), list("samplers"));
+        // Only what the kept objects name: a light or a camera is not
+        // written, so its extension is not used, and must not be required.
+        let mut named = std::collections::HashSet::new();
+        for value in materials.iter().chain(&textures).chain(&samplers) {
+            extensions_named(value, &mut named);
+        }
+        for image in &images {
+            extensions_named(&image.json, &mut named);
+        }
+        let kept = |key| -> Vec<String> {
+            names(key)
+                .into_iter()
+                .filter(|n| named.contains(n.as_str()))
+                .collect()
+        };
         Ok(MaterialTable {
-            materials: list("materials"),
-            textures: list("textures"),
-            samplers: list("samplers"),
+            extensions_used: kept("extensionsUsed"),
+            extensions_required: kept("extensionsRequired"),
+            materials,
+            textures,
+            samplers,
             images,
-            extensions_used: names("extensionsUsed"),
-            extensions_required: names("extensionsRequired"),
         })
     }
 
-    /// An external image's bytes, through the resolver.
-    fn image_file(&mut self, uri: &str) -> Result<Vec<u8>> {
-        let refused = |reason: String| Error::ResourceRefused {
-            uri: uri.into(),
-            reason: reason.into(),
+    /// An external image's bytes, through the resolver; one that cannot
+    /// be read whole is kept as its reference: the geometry does not need
+    /// it, and a search or a listing of repeats goes on without it.
+    fn image_file(&mut self, uri: &str) -> ImageData {
+        let unread = |reason: String| ImageData::Unread {
+            uri: uri.to_string(),
+            reason,
         };
-        let path = ResourcePath::parse(uri).map_err(refused)?;
-        match self.resources.resolve(&path, MAX_IMAGE_BYTES) {
-            Ok(bytes) => Ok(bytes),
-            Err(ResourceError::Missing) => Err(Error::MissingResource { uri: uri.into() }),
-            Err(ResourceError::Refused(reason)) => Err(refused(reason)),
+        let path = match ResourcePath::parse(uri) {
+            Ok(path) => path,
+            Err(reason) => return unread(reason),
+        };
+        // One byte past the limit tells a larger file from one that fits.
+        match self.resources.resolve(&path, MAX_IMAGE_BYTES + 1) {
+            Ok(bytes) if bytes.len() > MAX_IMAGE_BYTES => {
+                unread(format!("it is larger than {} MiB", MAX_IMAGE_BYTES >> 20))
+            }
+            Ok(bytes) => ImageData::Bytes(bytes.into()),
+            Err(ResourceError::Missing) => unread("it was not found".into()),
+            Err(ResourceError::Refused(reason)) => unread(reason),
         }
+    }
+}
+
+/// Every key of an `extensions` object within `value`, at any depth.
+fn extensions_named<'a>(value: &'a Value, named: &mut std::collections::HashSet<&'a str>) {
+    match value {
+        Value::Object(object) => {
+            for (key, inner) in object {
+                if let ("extensions", Value::Object(extensions)) = (key.as_str(), inner) {
+                    named.extend(extensions.keys().map(String::as_str));
+                }
+                extensions_named(inner, named);
+            }
+        }
+        Value::Array(items) => items.iter().for_each(|v| extensions_named(v, named)),
+        _ => {}
     }
 }
 

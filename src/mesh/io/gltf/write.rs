@@ -7,7 +7,7 @@
 use serde_json::{Map, Value, json};
 
 use crate::error::{Error, Result};
-use crate::mesh::io::model::{IDENTITY, ImageData, Matrix, Model, determinant};
+use crate::mesh::io::model::{IDENTITY, ImageData, Matrix, Model, Trs, trs};
 
 /// glTF's component types and buffer targets.
 const FLOAT: u32 = 5126;
@@ -16,7 +16,7 @@ const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 
-const INSTANCING: &str = "EXT_mesh_gpu_instancing";
+use super::instancing::INSTANCING;
 
 /// `model` as GLB bytes.
 pub(crate) fn write_glb(model: &Model) -> Result<Vec<u8>> {
@@ -50,10 +50,7 @@ pub(crate) fn write_glb(model: &Model) -> Result<Vec<u8>> {
             primitives.push(object);
         }
         if primitives.is_empty() {
-            return Err(Error::invalid_option(
-                "model",
-                format!("mesh {m} has no triangles to write"),
-            ));
+            return Err(unwritable(format!("mesh {m} has no triangles to write")));
         }
         let mut object = json!({ "primitives": primitives });
         if let Some(name) = &mesh.name {
@@ -70,18 +67,32 @@ pub(crate) fn write_glb(model: &Model) -> Result<Vec<u8>> {
             }
             object
         };
+        // glTF places by translation, rotation and scale only: a shear
+        // written as a matrix is invalid, and drawn otherwise by readers
+        // that decompose it.
+        let placements = node
+            .placements
+            .iter()
+            .map(|m| trs(m).ok_or_else(|| sheared(node.name.as_deref())))
+            .collect::<Result<Vec<Trs>>>()?;
         if node.placements.len() > 1 {
             instanced = true;
-            let attributes = out.instances(&node.placements);
+            let attributes = out.instances(&placements);
             nodes.push(named(json!({
                 "mesh": node.mesh,
                 "extensions": { INSTANCING: { "attributes": attributes } },
             })));
             continue;
         }
-        for placement in &node.placements {
+        for (placement, trs) in node.placements.iter().zip(&placements) {
             let mut object = json!({ "mesh": node.mesh });
-            if *placement != IDENTITY {
+            // A scale of zero (a hidden or flattened part) has no matrix
+            // form a validator accepts: it is written as properties.
+            if trs.is_singular() {
+                object["translation"] = json!(trs.translation);
+                object["rotation"] = json!(trs.rotation);
+                object["scale"] = json!(trs.scale);
+            } else if *placement != IDENTITY {
                 object["matrix"] = json!(column_major(placement));
             }
             nodes.push(named(object));
@@ -89,11 +100,18 @@ pub(crate) fn write_glb(model: &Model) -> Result<Vec<u8>> {
     }
     let table = &model.materials;
     let mut images = Vec::with_capacity(table.images.len());
+    // Bytes several images share are stored once.
+    let mut views: std::collections::HashMap<*const Vec<u8>, usize> = Default::default();
     for image in &table.images {
         let mut object = image.json.clone();
         match &image.data {
-            ImageData::Bytes(bytes) => object["bufferView"] = json!(out.view(bytes, None)),
-            ImageData::DataUri(uri) => object["uri"] = json!(uri),
+            ImageData::Bytes(bytes) => {
+                let view = *views
+                    .entry(std::sync::Arc::as_ptr(bytes))
+                    .or_insert_with(|| out.view(bytes, None));
+                object["bufferView"] = json!(view);
+            }
+            ImageData::DataUri(uri) | ImageData::Unread { uri, .. } => object["uri"] = json!(uri),
         }
         images.push(object);
     }
@@ -130,8 +148,8 @@ pub(crate) fn write_glb(model: &Model) -> Result<Vec<u8>> {
         root["bufferViews"] = Value::Array(out.views);
         root["accessors"] = Value::Array(out.accessors);
     }
-    let text = serde_json::to_vec(&root)
-        .map_err(|e| Error::invalid_option("model", format!("cannot write its JSON: {e}")))?;
+    let text =
+        serde_json::to_vec(&root).map_err(|e| unwritable(format!("cannot write its JSON: {e}")))?;
     glb(text, out.bin)
 }
 
@@ -211,13 +229,12 @@ impl Writer {
     /// The instancing attributes of `placements`: translation, rotation
     /// (a unit quaternion) and scale, whose x is negative for a mirror
     /// image.
-    fn instances(&mut self, placements: &[Matrix]) -> Value {
+    fn instances(&mut self, placements: &[Trs]) -> Value {
         let (mut t, mut r, mut s) = (Vec::new(), Vec::new(), Vec::new());
-        for m in placements {
-            let (translation, rotation, scale) = decompose(m);
-            t.extend(translation);
-            r.extend(rotation);
-            s.extend(scale);
+        for p in placements {
+            t.extend(p.translation.map(|x| x as f32));
+            r.extend(p.rotation.map(|x| x as f32));
+            s.extend(p.scale.map(|x| x as f32));
         }
         json!({
             "TRANSLATION": self.floats(&t, 3, None, false),
@@ -242,68 +259,24 @@ fn unit_vectors(values: &[f32], width: usize) -> Vec<f32> {
     out
 }
 
+/// The error for a placement glTF cannot hold: the model's producer
+/// should have moved the part's vertices instead.
+fn sheared(node: Option<&str>) -> Error {
+    let node = node.map_or(String::new(), |n| format!(" '{n}'"));
+    unwritable(format!(
+        "node{node} is placed by a shear, which a glTF node cannot hold"
+    ))
+}
+
+fn unwritable(reason: String) -> Error {
+    Error::Unwritable {
+        reason: crate::error::FileText::new(&reason),
+    }
+}
+
 /// `m` as glTF stores a node's matrix: sixteen values, column by column.
 fn column_major(m: &Matrix) -> [f64; 16] {
     std::array::from_fn(|i| m[i % 4][i / 4])
-}
-
-/// Translation, rotation (x, y, z, w) and scale of a transform made of
-/// them; a mirroring one gets a negative x scale.
-fn decompose(m: &Matrix) -> ([f32; 3], [f32; 4], [f32; 3]) {
-    let column = |c: usize| [m[0][c], m[1][c], m[2][c]];
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let mut scale = [0, 1, 2].map(|c| norm(column(c)));
-    if determinant(m) < 0.0 {
-        scale[0] = -scale[0];
-    }
-    // The rotation's rows and columns: r[row][col].
-    let r: [[f64; 3]; 3] = std::array::from_fn(|row| std::array::from_fn(|c| m[row][c] / scale[c]));
-    let q = quaternion(&r);
-    (
-        [m[0][3], m[1][3], m[2][3]].map(|x| x as f32),
-        q.map(|x| x as f32),
-        scale.map(|x| x as f32),
-    )
-}
-
-/// The unit quaternion (x, y, z, w) of rotation matrix `r`.
-fn quaternion(r: &[[f64; 3]; 3]) -> [f64; 4] {
-    let trace = r[0][0] + r[1][1] + r[2][2];
-    let q = if trace > 0.0 {
-        let s = (trace + 1.0).sqrt() * 2.0;
-        [
-            (r[2][1] - r[1][2]) / s,
-            (r[0][2] - r[2][0]) / s,
-            (r[1][0] - r[0][1]) / s,
-            0.25 * s,
-        ]
-    } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
-        let s = (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt() * 2.0;
-        [
-            0.25 * s,
-            (r[0][1] + r[1][0]) / s,
-            (r[0][2] + r[2][0]) / s,
-            (r[2][1] - r[1][2]) / s,
-        ]
-    } else if r[1][1] > r[2][2] {
-        let s = (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt() * 2.0;
-        [
-            (r[0][1] + r[1][0]) / s,
-            0.25 * s,
-            (r[1][2] + r[2][1]) / s,
-            (r[0][2] - r[2][0]) / s,
-        ]
-    } else {
-        let s = (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt() * 2.0;
-        [
-            (r[0][2] + r[2][0]) / s,
-            (r[1][2] + r[2][1]) / s,
-            0.25 * s,
-            (r[1][0] - r[0][1]) / s,
-        ]
-    };
-    let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-    q.map(|x| x / n)
 }
 
 /// A GLB of `json` and `bin`: the header, then each chunk padded to four
@@ -318,10 +291,9 @@ fn glb(mut json: Vec<u8>, mut bin: Vec<u8>) -> Result<Vec<u8>> {
     let bin_chunk = if bin.is_empty() { 0 } else { 8 + bin.len() };
     let total = 12 + 8 + json.len() + bin_chunk;
     if u32::try_from(total).is_err() {
-        return Err(Error::invalid_option(
-            "model",
-            format!("it would take {total} bytes, more than a GLB's 4 GiB"),
-        ));
+        return Err(unwritable(format!(
+            "it would take {total} bytes, more than a GLB's 4 GiB"
+        )));
     }
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
