@@ -7,6 +7,7 @@
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use fast_reject::mesh::io::{ResourceError, ResourcePath, ResourceResolver};
 
@@ -14,6 +15,8 @@ use fast_reject::mesh::io::{ResourceError, ResourcePath, ResourceResolver};
 pub struct FolderResolver {
     /// The folder, with every symbolic link resolved.
     folder: PathBuf,
+    /// The files read, so that an output is never written over one.
+    read: Mutex<Vec<PathBuf>>,
 }
 
 impl FolderResolver {
@@ -21,7 +24,15 @@ impl FolderResolver {
     pub fn beside(model: &Path) -> std::io::Result<FolderResolver> {
         let model = model.canonicalize()?;
         let folder = model.parent().map(Path::to_path_buf).unwrap_or_default();
-        Ok(FolderResolver { folder })
+        Ok(FolderResolver {
+            folder,
+            read: Mutex::default(),
+        })
+    }
+
+    /// The files resolved so far.
+    pub fn read(&self) -> Vec<PathBuf> {
+        self.read.lock().map(|r| r.clone()).unwrap_or_default()
     }
 }
 
@@ -50,6 +61,9 @@ impl ResourceResolver for FolderResolver {
             return Err(not_a_file());
         }
         let file = open_without_blocking(&real).map_err(refused)?;
+        if let Ok(mut read) = self.read.lock() {
+            read.push(real.clone());
+        }
         // Checked on the open file, so that what is read is what was checked.
         if !file.metadata().map_err(refused)?.is_file() {
             return Err(not_a_file());

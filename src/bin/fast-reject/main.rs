@@ -1,6 +1,7 @@
 //! The `fast-reject` command: search a scene file for a template.
 
 mod folder_resolver;
+mod output_file;
 mod progress;
 mod repeats;
 mod table;
@@ -90,6 +91,13 @@ struct MatchArgs {
 }
 
 fn main() -> ExitCode {
+    // A file size limit (`ulimit -f`) is then an error on the write that
+    // passes it, reported like a full disk, not a signal that kills.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to ignore is always sound.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     // Usage errors, --help and --version exit as clap says (2 for usage);
     // printing them may fail on a closed pipe, which is no reason to panic.
     let cli = match Cli::try_parse() {
@@ -373,11 +381,19 @@ fn load_file(path: &Path) -> Result<TriMesh, String> {
 }
 
 /// The model in the file at `path`, with what a viewer draws (see
-/// [`fast_reject::mesh::io::load_model`]).
-fn load_model_file(path: &Path) -> Result<Model, String> {
-    read_file(path, |bytes, format, resolver| {
-        load_model(bytes, format, resolver)
-    })
+/// [`fast_reject::mesh::io::load_model`]), and every file it was read
+/// from: the model's own and those it refers to.
+fn load_model_file(path: &Path) -> Result<(Model, output_file::ReadFiles), String> {
+    let mut files = output_file::ReadFiles::default();
+    files.add(path);
+    let model = read_file(path, |bytes, format, resolver| {
+        let model = load_model(bytes, format, resolver);
+        for file in resolver.read() {
+            files.add(&file);
+        }
+        model
+    })?;
+    Ok((model, files))
 }
 
 /// `load` on the bytes of the file at `path`, with its format and a

@@ -3,11 +3,14 @@
 
 use std::path::PathBuf;
 
+use fast_reject::error::FileText;
 use fast_reject::exec::Threads;
+use fast_reject::mesh::io::model::ImageData;
 use fast_reject::mesh::io::write_glb;
 use fast_reject::repeats::{Placement, instanced_model, split_by_material};
 use fast_reject::{Family, find_repeats_observed};
 
+use crate::output_file::write_atomically;
 use crate::progress::ProgressLine;
 
 #[derive(clap::Args)]
@@ -26,6 +29,10 @@ pub struct RepeatsArgs {
     /// EXT_mesh_gpu_instancing, one node per part.
     #[arg(long, requires = "out")]
     gpu_instancing: bool,
+    /// With --out: let the output replace the scene or a file it reads
+    /// (refused without this, since the input would be lost).
+    #[arg(long, requires = "out")]
+    replace_input: bool,
     /// Progress lines on standard error even when it is not a terminal (a
     /// terminal shows a line redrawn in place without this).
     #[arg(long)]
@@ -36,7 +43,11 @@ pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
     let start = std::time::Instant::now();
     let mut progress = ProgressLine::new(args.progress);
     progress.phase("loading the scene");
-    let model = super::load_model_file(&args.scene)?;
+    let (model, read) = super::load_model_file(&args.scene)?;
+    // Before the work, not after it: the answer is already known.
+    if let Some(out) = &args.out {
+        read.refuse_overwrite(out, args.replace_input)?;
+    }
     let (mesh, sources) = model
         .placed()
         .map_err(|e| format!("'{}': {e}", super::shown(&args.scene)))?;
@@ -60,8 +71,18 @@ pub fn run_repeats(args: RepeatsArgs) -> Result<(), String> {
         let instanced = instanced.model;
         let bytes =
             write_glb(&instanced).map_err(|e| format!("cannot write the instanced model: {e}"))?;
-        std::fs::write(out, &bytes)
-            .map_err(|e| format!("cannot write '{}': {e}", super::shown(out)))?;
+        write_atomically(out, &bytes)?;
+        for image in &model.materials.images {
+            if let ImageData::Unread { uri, reason } = &image.data {
+                use std::io::Write;
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "note: the image '{}' is not in the written file, only named by it: {}",
+                    FileText::new(uri),
+                    FileText::new(reason)
+                );
+            }
+        }
         let nodes: usize = instanced.nodes.iter().map(|n| n.placements.len()).sum();
         written = Some((bytes.len(), instanced.meshes.len(), nodes));
     }
@@ -123,12 +144,12 @@ fn table(families: &[Family], triangles: usize, loaded: f64, found: f64) -> Stri
         let residual = f.copies.iter().map(|c| c.residual).fold(0.0, f64::max);
         let _ = write!(
             text,
-            "\n{k:>6} {:>7} {:>8} {:>9} {:>6} {:>12.4} {residual:>10.2e}",
+            "\n{k:>6} {:>7} {:>8} {:>9} {:>6} {:>12} {residual:>10.2e}",
             f.copies.len(),
             f.copies.iter().filter(|c| c.mirrored).count(),
             f.triangles(),
             f.pieces,
-            f.radius
+            crate::table::num(f.radius)
         );
     }
     text

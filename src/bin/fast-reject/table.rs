@@ -14,14 +14,19 @@ impl fmt::Display for Table<'_> {
         let t = &report.template;
         writeln!(
             f,
-            "template: centre ({:.4}, {:.4}, {:.4}), radius {:.4}",
-            t.center[0], t.center[1], t.center[2], t.radius
+            "template: centre ({}, {}, {}), radius {}",
+            num(t.center[0]),
+            num(t.center[1]),
+            num(t.center[2]),
+            num(t.radius)
         )?;
         if let Some(g) = &report.grid {
             writeln!(
                 f,
-                "grid: {} voxels on the longest side, voxel {:.5}, {} candidate points",
-                g.resolution, g.voxel_size, g.skin_voxels
+                "grid: {} voxels on the longest side, voxel {}, {} candidate points",
+                g.resolution,
+                num(g.voxel_size),
+                g.skin_voxels
             )?;
             if g.windows > 0 {
                 writeln!(f, "large parts searched in {} windows", g.windows)?;
@@ -49,8 +54,13 @@ impl fmt::Display for Table<'_> {
         for s in &report.stages {
             writeln!(
                 f,
-                "{:<10} {:>5} {:>8.4} {:>10} {:>10} {:>9.1}",
-                s.descriptor, s.layer, s.radius, s.candidates, s.survivors, s.ms
+                "{:<10} {:>5} {:>8} {:>10} {:>10} {:>9.1}",
+                s.descriptor,
+                s.layer,
+                num(s.radius),
+                s.candidates,
+                s.survivors,
+                s.ms
             )?;
         }
         writeln!(f, "\n{} instance(s):", report.instances.len())?;
@@ -58,12 +68,12 @@ impl fmt::Display for Table<'_> {
             let p = inst.position;
             write!(
                 f,
-                "  #{:<3} at ({:.4}, {:.4}, {:.4})  distance {:.4}",
+                "  #{:<3} at ({}, {}, {})  distance {}",
                 i + 1,
-                p[0],
-                p[1],
-                p[2],
-                inst.distance,
+                num(p[0]),
+                num(p[1]),
+                num(p[2]),
+                num(inst.distance),
             )?;
             if let Some(score) = inst.score {
                 write!(f, "  score {score:.3}")?;
@@ -89,5 +99,16 @@ impl fmt::Display for Table<'_> {
             tm.group,
             tm.total()
         )
+    }
+}
+
+/// A coordinate or a length as a person reads it: four decimals where
+/// that is readable, scientific notation for the very large and the very
+/// small (1e308 is not three hundred digits).
+pub fn num(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) || !x.is_finite() {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.3e}")
     }
 }
