@@ -655,26 +655,67 @@ pub fn split_by_material(
     sources: &[TriangleSource],
     families: Vec<Family>,
 ) -> Vec<Family> {
+    split_by_material_counted(model, mesh, sources, families).0
+}
+
+/// [`split_by_material`], and how many pairs of copies it compared
+/// triangle by triangle.
+///
+/// Each copy is led by the first remaining copy of its family that it
+/// matches, as before; but a copy is compared only with copies that use
+/// the same materials as many times each (a copy's triangles land one to
+/// one on its match's, so they do wherever it matches): comparing each
+/// remaining copy with each lead was quadratic, 10 000 copies each in a
+/// material of its own took minutes.
+pub(crate) fn split_by_material_counted(
+    model: &Model,
+    mesh: &TriMesh,
+    sources: &[TriangleSource],
+    families: Vec<Family>,
+) -> (Vec<Family>, usize) {
     let material = |t: u32| {
         let s = sources[t as usize];
         model.meshes[model.nodes[s.node as usize].mesh].primitives[s.primitive as usize].material
     };
     if (0..sources.len() as u32).all(|t| material(t).is_none()) {
-        return families;
+        return (families, 0);
     }
-    let mut out = Vec::new();
-    for family in families {
-        let mut rest: Vec<RepeatCopy> = family.copies.clone();
-        while rest.len() >= 2 {
-            let lead = rest.remove(0);
-            let back = inverse_rigid(&lead.pose);
-            let (same, other): (Vec<RepeatCopy>, Vec<RepeatCopy>) =
-                rest.into_iter().partition(|c| {
+    let mut compared = 0;
+    // The families found, by the place of their lead among the copies
+    // (its family, then its copy): each family's copies split as before,
+    // in the order the leads had.
+    let mut out: Vec<((usize, usize), Family)> = Vec::new();
+    for (f, family) in families.into_iter().enumerate() {
+        // The copies by the materials they use, each with its count.
+        let mut by_materials: HashMap<Vec<(Option<u32>, u32)>, Vec<usize>> = HashMap::new();
+        for (c, copy) in family.copies.iter().enumerate() {
+            let mut used: Vec<Option<u32>> = copy.triangles.iter().map(|&t| material(t)).collect();
+            used.sort_unstable();
+            let mut counted: Vec<(Option<u32>, u32)> = Vec::new();
+            for m in used {
+                match counted.last_mut() {
+                    Some((last, count)) if *last == m => *count += 1,
+                    _ => counted.push((m, 1)),
+                }
+            }
+            by_materials.entry(counted).or_default().push(c);
+        }
+        let mut buckets: Vec<Vec<usize>> = by_materials.into_values().collect();
+        buckets.sort_unstable_by_key(|bucket| bucket[0]);
+        for bucket in buckets {
+            let mut rest: Vec<usize> = bucket;
+            while rest.len() >= 2 {
+                let lead_at = rest.remove(0);
+                let lead = &family.copies[lead_at];
+                let back = inverse_rigid(&lead.pose);
+                let (same, other): (Vec<usize>, Vec<usize>) = rest.into_iter().partition(|&c| {
+                    let c = &family.copies[c];
                     let relative = multiply(&c.pose, &back);
                     // Where the two copies' vertices may lie apart.
                     let tolerance = (2.0 * (c.residual + lead.residual))
                         .max(family.radius * 1e-6)
                         .max(1e-12);
+                    compared += 1;
                     same_materials(
                         mesh,
                         &lead.triangles,
@@ -684,34 +725,43 @@ pub fn split_by_material(
                         &material,
                     )
                 });
-            rest = other;
-            if same.is_empty() {
-                continue;
+                rest = other;
+                if same.is_empty() {
+                    continue;
+                }
+                let centre = moved(&lead.pose, family.center);
+                let mut copies = vec![RepeatCopy {
+                    pose: IDENTITY,
+                    residual: 0.0,
+                    mirrored: false,
+                    triangles: lead.triangles.clone(),
+                }];
+                copies.extend(same.into_iter().map(|c| {
+                    let c = &family.copies[c];
+                    RepeatCopy {
+                        pose: multiply(&c.pose, &back),
+                        // At most the two copies' own residuals apart.
+                        residual: c.residual + lead.residual,
+                        mirrored: c.mirrored != lead.mirrored,
+                        triangles: c.triangles.clone(),
+                    }
+                }));
+                out.push((
+                    (f, lead_at),
+                    Family {
+                        center: centre,
+                        radius: family.radius,
+                        pieces: family.pieces,
+                        copies,
+                    },
+                ));
             }
-            let centre = moved(&lead.pose, family.center);
-            let mut copies = vec![RepeatCopy {
-                pose: IDENTITY,
-                residual: 0.0,
-                mirrored: false,
-                triangles: lead.triangles.clone(),
-            }];
-            copies.extend(same.into_iter().map(|c| RepeatCopy {
-                pose: multiply(&c.pose, &back),
-                // At most the two copies' own residuals apart.
-                residual: c.residual + lead.residual,
-                mirrored: c.mirrored != lead.mirrored,
-                triangles: c.triangles,
-            }));
-            out.push(Family {
-                center: centre,
-                radius: family.radius,
-                pieces: family.pieces,
-                copies,
-            });
         }
     }
+    out.sort_by_key(|&(lead, _)| lead);
+    let mut out: Vec<Family> = out.into_iter().map(|(_, family)| family).collect();
     out.sort_by_key(|f| std::cmp::Reverse(f.triangles() * f.copies.len()));
-    out
+    (out, compared)
 }
 
 /// Whether every triangle of `lead`, moved by `pose`, lands on a triangle
@@ -769,4 +819,70 @@ fn inverse_rigid(m: &Matrix) -> Matrix {
         inverse[r][3] = -(0..3).map(|k| inverse[r][k] * m[k][3]).sum::<f64>();
     }
     inverse
+}
+
+#[cfg(test)]
+mod split_tests {
+    use super::*;
+    use crate::mesh::io::model::ModelNode;
+    use crate::mesh::shapes::cuboid;
+    use crate::repeats::find_repeats;
+
+    /// `n` copies of one box, each a node whose mesh is drawn in
+    /// material `k % materials`.
+    fn boxes(n: usize, materials: usize) -> Model {
+        let shape = cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0));
+        let mesh = |material: usize| ModelMesh {
+            name: None,
+            primitives: vec![Primitive {
+                attributes: vec![Attribute {
+                    semantic: "POSITION".to_string(),
+                    width: 3,
+                    values: shape.positions().iter().flatten().copied().collect(),
+                }],
+                triangles: shape.triangles().to_vec(),
+                material: Some(material as u32),
+            }],
+        };
+        Model {
+            meshes: (0..materials).map(mesh).collect(),
+            nodes: (0..n)
+                .map(|k| {
+                    let mut at = IDENTITY;
+                    at[0][3] = 5.0 * (k % 32) as f64;
+                    at[1][3] = 5.0 * (k / 32) as f64;
+                    ModelNode {
+                        name: None,
+                        mesh: k % materials,
+                        placements: vec![at],
+                    }
+                })
+                .collect(),
+            materials: Default::default(),
+        }
+    }
+
+    #[test]
+    fn copies_in_materials_of_their_own_are_compared_a_linear_number_of_times() {
+        for n in [200, 400, 800] {
+            for materials in [n, 7] {
+                let model = boxes(n, materials);
+                let (mesh, sources) = model.placed().unwrap();
+                let alike = find_repeats(&mesh, Threads::Serial);
+                assert_eq!(alike.len(), 1);
+                assert_eq!(alike[0].copies.len(), n);
+                let (families, compared) =
+                    split_by_material_counted(&model, &mesh, &sources, alike);
+                // As many families as materials that two copies or more use.
+                let expected = if materials == n { 0 } else { materials };
+                assert_eq!(families.len(), expected);
+                // Each copy is compared with the lead of its material once:
+                // every pair was n (n - 1) / 2.
+                assert!(
+                    compared < n,
+                    "{n} copies, {materials} materials: {compared}"
+                );
+            }
+        }
+    }
 }
