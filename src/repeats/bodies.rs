@@ -9,11 +9,12 @@
 
 use std::cell::OnceCell;
 use std::collections::{BTreeMap, HashMap};
+use std::hash::BuildHasherDefault;
 
 use super::CopyOf;
 use crate::align::Rigid;
 use crate::math::{Aabb, Vec3};
-use crate::mesh::TriMesh;
+use crate::mesh::{FxHasher, TriMesh};
 use glam::DMat3;
 
 /// One copy of a body: its pieces, and the motion from the body's first
@@ -163,6 +164,101 @@ impl PieceFamily {
         })
     }
 
+    /// How far, at most, the rotation of a copy that [`Self::copy_at`]
+    /// finds for a pose lies from the pose's (the spectral norm of their
+    /// difference), where the piece has no symmetry but the identity:
+    /// `None` where it may have one.
+    ///
+    /// Whatever `copy_at` lets through is a motion S (the pose undone,
+    /// then the copy's) that moves the centroid within the tolerance t
+    /// and each vertex within t of a vertex: a symmetry, or the identity
+    /// off by rounding. Three vertices pin S down where every vertex it
+    /// could be taken near lies close to the vertex itself: the farthest
+    /// from the centroid (it lands as far, within 2t), the farthest from
+    /// that axis (as far, and as far along it), and the farthest from
+    /// their plane (as far from the centroid, and as far along the two).
+    /// Each then moves at most t past that cluster's width, and the
+    /// rotation of S lies from the identity by at most what those three
+    /// moves allow, doubled for rounding.
+    fn turn_bound(&self) -> Option<f64> {
+        let t = self.tolerance;
+        let c = self.centroid;
+        let vertices = &self.vertices;
+        let farthest = |score: &dyn Fn(Vec3) -> f64| {
+            vertices
+                .iter()
+                .copied()
+                .max_by(|a, b| score(*a).total_cmp(&score(*b)))
+        };
+        // The widest cluster of vertices near `v`: those that pass `near`.
+        let spread = |v: Vec3, near: &dyn Fn(Vec3) -> bool| {
+            vertices
+                .iter()
+                .filter(|&&w| near(w))
+                .map(|w| w.distance(v))
+                .fold(0.0, f64::max)
+        };
+        let a = farthest(&|v| v.distance(c))?;
+        let da = a.distance(c);
+        if da <= 0.0 {
+            return None;
+        }
+        let ea = 2.0 * t + spread(a, &|w| w.distance(c) >= da - 2.0 * t);
+        let axis = (a - c) / da;
+        // How far S may turn the axis: |R^T x - x| for x along it.
+        let ka = ea / da;
+        let off_axis = |v: Vec3| {
+            let u = v - c;
+            (u - u.dot(axis) * axis).length()
+        };
+        let b = farthest(&off_axis)?;
+        let (db, rb) = (b.distance(c), off_axis(b));
+        if rb <= 1e-6 * da {
+            return None;
+        }
+        let along_a = |v: Vec3| (v - c).dot(axis);
+        let reach_b = db * ka + 2.0 * t;
+        let eb = 2.0 * t
+            + spread(b, &|w| {
+                (w.distance(c) - db).abs() <= 2.0 * t && (along_a(w) - along_a(b)).abs() <= reach_b
+            });
+        let ub = b - c;
+        let side = (ub - ub.dot(axis) * axis) / rb;
+        let kb = (eb + db * ka) / rb;
+        let normal = axis.cross(side);
+        let cv = farthest(&|v| (v - c).dot(normal).abs())?;
+        let dc = cv.distance(c);
+        if (cv - c).dot(normal).abs() <= 1e-6 * da {
+            return None;
+        }
+        let along_b = |v: Vec3| (v - c).dot(side);
+        let ec = 2.0 * t
+            + spread(cv, &|w| {
+                (w.distance(c) - dc).abs() <= 2.0 * t
+                    && (along_a(w) - along_a(cv)).abs() <= dc * ka + 2.0 * t
+                    && (along_b(w) - along_b(cv)).abs() <= dc * kb + 2.0 * t
+            });
+        // |R - I| <= |(R - I) U| |U^-1|, U the three vertices about the
+        // centroid, each column of (R - I) U at most its vertex's move.
+        let u = DMat3::from_cols(a - c, ub, cv - c);
+        let inverse = u.inverse();
+        let frobenius = (inverse.x_axis.length_squared()
+            + inverse.y_axis.length_squared()
+            + inverse.z_axis.length_squared())
+        .sqrt();
+        let bound = 2.0 * (ea * ea + eb * eb + ec * ec).sqrt() * frobenius;
+        bound.is_finite().then_some(bound)
+    }
+
+    /// How far, at most, a copy's pose moves a point `reach` from the
+    /// centroid from where the anchor's motion that finds it does (see
+    /// [`PoseIndex`]), given [`Self::turn_bound`] `turn`: twice the
+    /// tolerance, and twice the turn over that reach, doubled for
+    /// rounding.
+    fn translation_bound(&self, turn: f64, reach: f64) -> f64 {
+        2.0 * (2.0 * self.tolerance + 2.0 * turn * reach)
+    }
+
     /// For each of `anchor`'s copies, the copies of this family that move
     /// with it, as many with each and each copy once, if every copy does.
     fn moves_with(&self, anchor: &PieceFamily) -> Option<Vec<Vec<usize>>> {
@@ -291,6 +387,21 @@ fn piece_families(
 /// The bodies of `pieces`, given which piece copies which: families of
 /// pieces that move together, joined.
 pub(super) fn bodies(mesh: &TriMesh, pieces: &[Vec<u32>], copies: &[Option<CopyOf>]) -> Vec<Body> {
+    bodies_counted(mesh, pieces, copies).0
+}
+
+/// [`bodies`], and how many pairs of families it tried to move together.
+///
+/// Each family joins the first earlier family left unjoined (an anchor)
+/// that it moves with, as before; but only the families that
+/// [`PoseIndex`] finds for an anchor are tried: trying each with every
+/// other of as many copies was quadratic, 20 000 parts each with one
+/// mirror image took most of a minute.
+fn bodies_counted(
+    mesh: &TriMesh,
+    pieces: &[Vec<u32>],
+    copies: &[Option<CopyOf>],
+) -> (Vec<Body>, usize) {
     let families = piece_families(mesh, pieces, copies);
     // Families by copy count: only those of one count can move together.
     let mut by_count: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
@@ -299,7 +410,9 @@ pub(super) fn bodies(mesh: &TriMesh, pieces: &[Vec<u32>], copies: &[Option<CopyO
     }
     let mut joined = vec![false; families.len()];
     let mut bodies = Vec::new();
+    let mut tried = 0;
     for same_count in by_count.values() {
+        let index = PoseIndex::new(&families, same_count);
         for (k, &anchor) in same_count.iter().enumerate() {
             if joined[anchor] {
                 continue;
@@ -307,10 +420,12 @@ pub(super) fn bodies(mesh: &TriMesh, pieces: &[Vec<u32>], copies: &[Option<CopyO
             let a = &families[anchor];
             let mut body = a.one_piece_bodies();
             let mut members = 1;
-            for &other in &same_count[k + 1..] {
+            for other in index.candidates(a, k) {
+                let other = same_count[other];
                 if joined[other] {
                     continue;
                 }
+                tried += 1;
                 let Some(pairing) = families[other].moves_with(a) else {
                     continue;
                 };
@@ -324,7 +439,185 @@ pub(super) fn bodies(mesh: &TriMesh, pieces: &[Vec<u32>], copies: &[Option<CopyO
             });
         }
     }
-    bodies
+    (bodies, tried)
+}
+
+/// The families of one copy count that may move with an anchor.
+///
+/// A family moves with an anchor when, for some copy `f` of it, the
+/// anchor's poses composed with `f`'s find a copy each, one of them its
+/// original. Say its original is found at the anchor's copy `l`: then at
+/// each other copy `l'` of the anchor it has a copy `j` whose pose is the
+/// anchor's motion from `l` to `l'`, P(l') P(l)^-1, within what
+/// [`PieceFamily::copy_at`] lets through twice: its centroid within
+/// twice the tolerance, and, where the piece has no symmetry but the
+/// identity ([`PieceFamily::turn_bound`]), its rotation within twice
+/// that bound. Each copy's pose but the original's is kept by its
+/// rotation and where it moves the origin of the family's region (within
+/// twice the tolerance and the turn's bound over the origin's distance
+/// from the centroid), in cells at least four times as wide as those
+/// bounds; an anchor looks up the cells about its motions P(1) and
+/// P(l)^-1 (l the copy that finds the original: the anchor's first copy
+/// or another). A family whose piece may be symmetric is tried with
+/// every anchor.
+struct PoseIndex {
+    /// The copies' poses by region, levels and cells: the families'
+    /// places in the count's list.
+    cells: HashMap<CellKey, Vec<usize>, BuildHasherDefault<FxHasher>>,
+    /// Each region's origin and the levels in use there.
+    regions: Vec<(Vec3, Vec<Levels>)>,
+    /// Those tried with every anchor, ascending.
+    everywhere: Vec<usize>,
+}
+
+/// The rotation's and the translation's levels of a family's bounds:
+/// cells of 2^(level + 2), four times the bound or more.
+type Levels = (i32, i32);
+
+/// A cell of poses: the region, the levels, and the values' cells.
+type CellKey = (usize, Levels, [i64; 6]);
+
+/// The regions along each axis of the box about the families' centroids:
+/// a pose is kept by where it moves its region's origin, which a turn
+/// that the bounds allow moves less the nearer the origin is.
+const REGIONS: usize = 4;
+
+impl PoseIndex {
+    fn new(families: &[PieceFamily], same_count: &[usize]) -> PoseIndex {
+        let mut index = PoseIndex {
+            cells: HashMap::default(),
+            regions: Vec::new(),
+            everywhere: Vec::new(),
+        };
+        let Some(bounds) = Aabb::around(same_count.iter().map(|&f| families[f].centroid)) else {
+            return index;
+        };
+        let step = (bounds.max - bounds.min).max_element().max(1e-9) / REGIONS as f64;
+        let origin = |r: [usize; 3]| {
+            bounds.min + step * (Vec3::new(r[0] as f64, r[1] as f64, r[2] as f64) + 0.5)
+        };
+        let mut region_of: HashMap<[usize; 3], usize> = HashMap::new();
+        for (k, &f) in same_count.iter().enumerate() {
+            let family = &families[f];
+            let at = ((family.centroid - bounds.min) / step)
+                .to_array()
+                .map(|x| (x.max(0.0) as usize).min(REGIONS - 1));
+            let o = origin(at);
+            let Some(levels) = family.turn_bound().and_then(|turn| {
+                // Twice the bound, over again for rounding.
+                let reach = family.centroid.distance(o);
+                Some((
+                    level_of(4.0 * turn)?,
+                    level_of(family.translation_bound(turn, reach))?,
+                ))
+            }) else {
+                index.everywhere.push(k);
+                continue;
+            };
+            let region = *region_of.entry(at).or_insert_with(|| {
+                index.regions.push((o, Vec::new()));
+                index.regions.len() - 1
+            });
+            if !index.regions[region].1.contains(&levels) {
+                index.regions[region].1.push(levels);
+            }
+            for (_, pose, _) in &family.copies[1..] {
+                let key = pose_values(pose, o)
+                    .map(|(x, scale)| (x / scale_of(scale, levels)).floor() as i64);
+                let list = index.cells.entry((region, levels, key)).or_default();
+                if list.last() != Some(&k) {
+                    list.push(k);
+                }
+            }
+        }
+        index
+    }
+
+    /// The places after `k` of the families that may move with `anchor`
+    /// (the family at `k`), ascending.
+    fn candidates(&self, anchor: &PieceFamily, k: usize) -> Vec<usize> {
+        let from = self.everywhere.partition_point(|&other| other <= k);
+        let mut found: Vec<usize> = self.everywhere[from..].to_vec();
+        let first = anchor.copies[1].1;
+        let motions = std::iter::once(first)
+            .chain(anchor.copies[1..].iter().map(|(_, pose, _)| pose.inverse()));
+        for motion in motions {
+            for (region, (o, levels)) in self.regions.iter().enumerate() {
+                let values = pose_values(&motion, *o);
+                for &level in levels {
+                    // Each value's cells: those its bound reaches, one or two.
+                    let ranges: [(i64, i64); 6] = values.map(|(x, scale)| {
+                        let width = scale_of(scale, level);
+                        let bound = width / 4.0;
+                        (
+                            ((x - bound) / width).floor() as i64,
+                            ((x + bound) / width).floor() as i64,
+                        )
+                    });
+                    let mut key = ranges.map(|(low, _)| low);
+                    'cells: loop {
+                        if let Some(list) = self.cells.get(&(region, level, key)) {
+                            found.extend(list.iter().copied().filter(|&other| other > k));
+                        }
+                        // The next key, as an odometer.
+                        for d in 0..6 {
+                            if key[d] < ranges[d].1 {
+                                key[d] += 1;
+                                continue 'cells;
+                            }
+                            key[d] = ranges[d].0;
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        found
+    }
+}
+
+/// Which kind of value each of [`pose_values`] is.
+#[derive(Clone, Copy)]
+enum Scale {
+    Turn,
+    Shift,
+}
+
+/// A pose's values as the index keeps them: three entries of its
+/// rotation (which fix it up to a few), and where it moves `origin`.
+fn pose_values(pose: &Rigid, origin: Vec3) -> [(f64, Scale); 6] {
+    let r = pose.rotation;
+    let t = pose.apply(origin);
+    [
+        (r.x_axis.x, Scale::Turn),
+        (r.x_axis.y, Scale::Turn),
+        (r.y_axis.z, Scale::Turn),
+        (t.x, Scale::Shift),
+        (t.y, Scale::Shift),
+        (t.z, Scale::Shift),
+    ]
+}
+
+/// The width of a cell of values of `scale` at `levels`: a rotation's
+/// entries lie within [-1, 1], so one cell of 8 holds them all.
+fn scale_of(scale: Scale, (turn, shift): Levels) -> f64 {
+    match scale {
+        Scale::Turn => 2f64.powi(turn.min(1) + 2),
+        Scale::Shift => 2f64.powi(shift + 2),
+    }
+}
+
+/// The level whose cells, 2^(level + 2) wide, are at least four times
+/// `bound` (a value's bound reaches two cells about half the time), an
+/// even one so that there are few: none for a bound that is no finite
+/// positive number.
+fn level_of(bound: f64) -> Option<i32> {
+    (bound > 0.0 && bound.is_finite()).then(|| {
+        let level = (bound.log2().ceil() as i32).clamp(-1000, 1000);
+        level + level.rem_euclid(2)
+    })
 }
 
 /// Adds `family`'s pieces to the body copies they move with.
@@ -359,4 +652,130 @@ pub(super) fn one_body(
         join_into(&mut body, family, family.moves_with(anchor)?);
     }
     Some(body)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exec::Threads;
+    use crate::mesh::shapes::cuboid;
+    use crate::repeats::{MirrorImages, congruent_parts};
+    use glam::DQuat;
+
+    /// A box of `size` with its far corner pulled out: no turn or
+    /// reflection maps it onto itself.
+    fn lopsided(size: Vec3) -> TriMesh {
+        cuboid(Vec3::ZERO, size)
+            .map_positions(|p| {
+                if p.distance(size) < 1e-5 {
+                    p + size * Vec3::new(0.4, 0.2, 0.5)
+                } else {
+                    p
+                }
+            })
+            .unwrap()
+    }
+
+    /// A turn that looks random, the same for the same `i`.
+    fn turn(i: usize) -> DQuat {
+        let mut state = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let mut next = || {
+            state ^= state >> 29;
+            state = state.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            state ^= state >> 32;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        DQuat::from_xyzw(next(), next(), next(), next()).normalize()
+    }
+
+    /// `n` parts of as many sizes, each with one copy turned or mirrored
+    /// (reflected in x, its triangles turned over), placed at random
+    /// about a grid: every copy of a part is 12 triangles, and the
+    /// pieces' copies, mirror images accepted.
+    fn pairs(n: usize, mirrored: bool) -> (TriMesh, Vec<Vec<u32>>, Vec<Option<CopyOf>>) {
+        let mut scene: Option<TriMesh> = None;
+        for k in 0..n {
+            let part = lopsided(Vec3::new(1.0 + 0.01 * k as f64, 2.0, 3.0));
+            for copy in 0..2 {
+                let slot = 2 * k + copy;
+                let at = Vec3::new(20.0 * (slot % 64) as f64, 20.0 * (slot / 64) as f64, 0.0);
+                let r = turn(slot);
+                let mut placed = part.map_positions(|p| r * p + at).unwrap();
+                if mirrored && copy == 1 {
+                    let positions = placed
+                        .positions()
+                        .iter()
+                        .map(|p| [2.0 * at.x as f32 - p[0], p[1], p[2]])
+                        .collect();
+                    let triangles = placed
+                        .triangles()
+                        .iter()
+                        .map(|&[a, b, c]| [a, c, b])
+                        .collect();
+                    placed = TriMesh::new(positions, triangles).unwrap();
+                }
+                match &mut scene {
+                    Some(scene) => scene.append(&placed),
+                    None => scene = Some(placed),
+                }
+            }
+        }
+        let scene = scene.unwrap();
+        let pieces: Vec<Vec<u32>> = (0..2 * n as u32)
+            .map(|k| (12 * k..12 * k + 12).collect())
+            .collect();
+        let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
+        let copies = congruent_parts(&scene, &lists, Threads::Serial, MirrorImages::Accepted);
+        (scene, pieces, copies)
+    }
+
+    #[test]
+    fn distinct_parts_each_with_one_copy_are_tried_together_a_linear_number_of_times() {
+        for mirrored in [true, false] {
+            for n in [250, 500, 1000] {
+                let (scene, pieces, copies) = pairs(n, mirrored);
+                assert_eq!(copies.iter().flatten().count(), n);
+                let (bodies, tried) = bodies_counted(&scene, &pieces, &copies);
+                // No two parts move together: each is a body of its own.
+                assert_eq!(bodies.len(), n);
+                assert!(bodies.iter().all(|b| b.pieces == 1 && b.copies.len() == 2));
+                // Trying every pair was n (n - 1) / 2.
+                assert!(tried <= n / 4, "{n} parts: {tried} tries");
+            }
+        }
+    }
+
+    #[test]
+    fn parts_that_move_together_are_still_found_through_the_index() {
+        // Each of 40 bodies is two parts side by side, placed twice: the
+        // index finds each part's partner among the others.
+        let mut scene: Option<TriMesh> = None;
+        for k in 0..40 {
+            let first = lopsided(Vec3::new(1.0 + 0.01 * k as f64, 2.0, 3.0));
+            let second = lopsided(Vec3::new(1.5, 1.0 + 0.01 * k as f64, 0.5))
+                .map_positions(|p| p + Vec3::new(4.0, 0.0, 0.0))
+                .unwrap();
+            for copy in 0..2 {
+                let r = turn(2 * k + copy);
+                let at = Vec3::new(30.0 * k as f64, 30.0 * copy as f64, 0.0);
+                for part in [&first, &second] {
+                    let placed = part.map_positions(|p| r * p + at).unwrap();
+                    match &mut scene {
+                        Some(scene) => scene.append(&placed),
+                        None => scene = Some(placed),
+                    }
+                }
+            }
+        }
+        let scene = scene.unwrap();
+        let pieces: Vec<Vec<u32>> = (0..160u32)
+            .map(|k| (12 * k..12 * k + 12).collect())
+            .collect();
+        let lists: Vec<&[u32]> = pieces.iter().map(|p| p.as_slice()).collect();
+        let copies = congruent_parts(&scene, &lists, Threads::Serial, MirrorImages::Refused);
+        let (bodies, tried) = bodies_counted(&scene, &pieces, &copies);
+        assert_eq!(bodies.len(), 40);
+        assert!(bodies.iter().all(|b| b.pieces == 2 && b.copies.len() == 2));
+        assert!(tried <= 80, "{tried}");
+    }
 }
