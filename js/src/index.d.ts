@@ -78,7 +78,7 @@ export interface MatchOptions {
   wholeCopies?: boolean;
   /** Keep near twins: where some instance fits the template within float rounding (exact CAD or BIM copies), those that neither fit within 1e-3 of its radius nor land 95% of its surface are refused unless this is set (default false). */
   keepNearTwins?: boolean;
-  /** Refuse a volume or harmonics search whose distinct parts, each searched on its own, would take more work than this (about nanoseconds of one core), judged from a sample searched first; raise it to search a building of tens of thousands of distinct parts anyway (default 3e11). */
+  /** Refuse a volume or harmonics search whose distinct parts, each searched on its own, would take more work than this (about nanoseconds of one core), judged from a sample searched first; raise it to search a building of tens of thousands of distinct parts anyway (default 3e10): about 30 s of one core; the same limit stops a part whose layers let most candidates through. */
   maxPartWork?: number;
 }
 

@@ -42,7 +42,7 @@ test('the option defaults are the core schema and are valid options', async () =
   assert.equal(defaults.match.groupRadius, 1);
   assert.equal(defaults.match.wholeCopies, false);
   assert.equal(defaults.match.keepNearTwins, false);
-  assert.equal(defaults.match.maxPartWork, 3e11);
+  assert.equal(defaults.match.maxPartWork, 3e10);
   const scene = Scene.fromBytes(sceneBytes, { ...defaults.scene, resolution: 128 });
   const template = Template.fromBytes(templateBytes);
   assert.ok(Array.isArray(scene.match(template, defaults.match).instances));

@@ -222,6 +222,21 @@ pub enum Error {
         advice: String,
     },
 
+    /// One part's search passed the work limit as it went: its layers let
+    /// most candidates through, and each would be checked at length.
+    #[error(
+        "the search passed its work limit of {limit:.3e} units ({time} of one core) where {doing}; {advice}",
+        time = one_core(*limit)
+    )]
+    WorkLimit {
+        /// The limit.
+        limit: f64,
+        /// Where it was passed, in words.
+        doing: String,
+        /// What would work.
+        advice: String,
+    },
+
     /// The parts a search would voxelize one by one have bounding boxes far
     /// larger together than the scene's: they overlap many times over
     /// (large triangles crossing each other, each its own part), and each

@@ -7,6 +7,7 @@ use super::parts::Runner;
 use super::prepare::PartSearch;
 use super::waves::Found;
 use super::windows::Window;
+use super::work::LayerWork;
 use crate::budget::Item;
 use crate::cascade::candidate_bytes;
 use crate::cascade::{LayerStats, Observer, Progress, Stage, Survivor, run_cascade};
@@ -137,12 +138,12 @@ impl PartSearch<'_> {
         let (survivors, stats) = self
             .cascade(voxels, candidates, anchors, found, runner)
             .await?;
+        found.add_stats(stats);
         let started = now_ms();
-        let (verified, checks) = self.verify(voxels, &survivors);
+        let (verified, checks) = self.verify(voxels, &survivors, self.work_left(found))?;
         let (instances, aligned) = self.place(part, voxels, &verified, &survivors);
         found.checks += checks;
         found.aligned += aligned;
-        found.add_stats(stats);
         found.timings.group += now_ms() - started;
         Ok(instances)
     }
@@ -247,15 +248,25 @@ impl PartSearch<'_> {
         if let Some(h) = &harmonics {
             stages.push(h);
         }
+        let mut watch = LayerWork {
+            inner: &mut SharedObserver(runner.observer),
+            left: self.work_left(found),
+            limit: options.max_part_work,
+            passed: None,
+        };
         let outcome = run_cascade(
             &stages,
             candidates,
             anchors,
             backend,
             batch.as_deref(),
-            &mut SharedObserver(runner.observer),
+            &mut watch,
         )
-        .await?;
+        .await;
+        if let Some(refusal) = watch.passed {
+            return Err(refusal);
+        }
+        let outcome = outcome?;
         if let Some(reason) = stages.iter().find_map(|s| s.batch_failure()) {
             found.gpu_fallback.get_or_insert(reason);
         }

@@ -70,8 +70,10 @@ impl<'a> PartSearch<'a> {
             .collect();
         // The sample may misjudge the rest: the work done is checked
         // between waves.
+        self.set_work_done(work);
         let mut add_work = |more: f64| {
             work += more;
+            self.set_work_done(work);
             match work > limit {
                 true => Err(too_much_work(originals.len(), work, limit)),
                 false => Ok(()),

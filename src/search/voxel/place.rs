@@ -5,8 +5,10 @@
 
 use super::prepare::PartSearch;
 use super::whole::{Components, is_whole, template_index};
+use super::work::{CHECK, loose_thresholds};
 use crate::align::{Rigid, SurfaceIndex, SurfaceSamples, align, stray_share, surface_fit};
 use crate::cascade::Survivor;
+use crate::error::Result;
 use crate::instances::{
     Instance, Verified, group, local_bests, merge_duplicates, placement_transform, stray_decides,
 };
@@ -18,12 +20,14 @@ impl PartSearch<'_> {
     /// The placements that pass verification, anchor by anchor: each
     /// anchor's local bests among `survivors`, but for a blob where a copy
     /// already placed puts this anchor (that copy, seen from another
-    /// anchor); and how many placements were checked.
+    /// anchor); and how many placements were checked. Refused where the
+    /// checks would take more than `work_left`.
     pub(super) fn verify(
         &self,
         voxels: &PartVoxels,
         survivors: &[Survivor],
-    ) -> (Vec<Verified>, usize) {
+        work_left: f64,
+    ) -> Result<(Vec<Verified>, usize)> {
         let (template, options) = (&self.template, self.options);
         let radii = template.radii();
         let voxel = voxels.grid().spec().voxel_size;
@@ -51,6 +55,12 @@ impl PartSearch<'_> {
                 })
                 .collect();
             checks += bests.len();
+            if checks as f64 * CHECK > work_left {
+                return Err(loose_thresholds(
+                    self.options.max_part_work,
+                    format!("{checks} placements passed every layer, each to be verified"),
+                ));
+            }
             let checked = options.backend.map_each(bests.len(), |b| {
                 let v = voxels.skin()[bests[b].point as usize];
                 let placement = verifier.check(
@@ -79,7 +89,7 @@ impl PartSearch<'_> {
                     .filter(|v| v.score >= options.verify_threshold),
             );
         }
-        (verified, checks)
+        Ok((verified, checks))
     }
 
     /// The instances `verified` placements make, grouped with the

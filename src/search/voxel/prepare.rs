@@ -57,6 +57,9 @@ pub(super) struct PartSearch<'a> {
     pub(super) vertex_reach: f64,
     /// What the search holds besides a part's grids.
     pub(super) held: Budget,
+    /// The work of the parts searched so far (f64 bits), that a part's
+    /// own checks add theirs to.
+    pub(super) work_done: std::sync::atomic::AtomicU64,
 }
 
 impl<'a> PartSearch<'a> {
@@ -122,6 +125,7 @@ impl<'a> PartSearch<'a> {
             two_sided: template.parts() == Parts::Components,
             vertex_reach,
             held,
+            work_done: std::sync::atomic::AtomicU64::new(0),
             template,
             lattice,
         })

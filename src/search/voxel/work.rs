@@ -8,13 +8,23 @@
 //! [`crate::MatchOptions::max_part_work`]. The work searched so far is
 //! checked between waves too, where the sample misjudged.
 //!
+//! Within a part, the work is checked as it goes too: after each layer,
+//! and before verifying the placements that passed every layer, so that
+//! thresholds that let every candidate through (one large part, a slab
+//! with bumps) stop at the limit rather than run for minutes.
+//!
 //! Work is counted from what the search did, not from a clock, so whether
 //! a search stops depends on the input only: layer candidates, verified
 //! placements and aligned instances, each weighted by what it costs one
 //! core (in nanoseconds, from the stage timings of 2 000 jittered
 //! tetrahedra and a 3 000-part building: `docs/CHANGELOG.md`, 2026-11-29).
 
+use std::ops::ControlFlow;
+use std::sync::atomic::Ordering;
+
+use super::prepare::PartSearch;
 use super::waves::Found;
+use crate::cascade::{LayerStats, Observer, Progress};
 use crate::error::Error;
 
 /// Parts searched first to judge the rest by, at most.
@@ -35,24 +45,23 @@ const HARMONICS_CANDIDATE: f64 = 16_000.0;
 const SKIN_VOXEL: f64 = 300.0;
 
 /// A placement verified (poses counted, the best refined).
-const CHECK: f64 = 2.0e6;
+pub(super) const CHECK: f64 = 2.0e6;
 
 /// An instance aligned on the meshes (ICP and the fit).
 const ALIGNMENT: f64 = 7.0e6;
 
+/// The work of one layer over its candidates.
+fn layer_work(stats: &LayerStats) -> f64 {
+    let each = match stats.descriptor {
+        "harmonics" => HARMONICS_CANDIDATE,
+        _ => VOLUME_CANDIDATE,
+    };
+    stats.candidates as f64 * each
+}
+
 /// The work `found` took, in about nanoseconds of one core.
 pub(super) fn work(found: &Found) -> f64 {
-    let layers: f64 = found
-        .stages
-        .iter()
-        .map(|s| {
-            let each = match s.descriptor {
-                "harmonics" => HARMONICS_CANDIDATE,
-                _ => VOLUME_CANDIDATE,
-            };
-            s.candidates as f64 * each
-        })
-        .sum();
+    let layers: f64 = found.stages.iter().map(layer_work).sum();
     layers
         + found.skin_voxels as f64 * SKIN_VOXEL
         + found.checks as f64 * CHECK
@@ -92,6 +101,70 @@ pub(super) fn too_much_work(parts: usize, work: f64, limit: f64) -> Error {
                  split the scene into smaller files, or raise the limit (--max-part-work on \
                  the CLI, maxPartWork in JavaScript): every distinct part that could hold a \
                  copy is searched on its own"
+            .into(),
+    }
+}
+
+impl PartSearch<'_> {
+    /// Notes the work of the parts searched so far.
+    pub(super) fn set_work_done(&self, work: f64) {
+        self.work_done.store(work.to_bits(), Ordering::Relaxed);
+    }
+
+    /// The work a part may still take, having taken `found`'s.
+    pub(super) fn work_left(&self, found: &Found) -> f64 {
+        let done = f64::from_bits(self.work_done.load(Ordering::Relaxed));
+        self.options.max_part_work - done - work(found)
+    }
+}
+
+/// An observer that counts each layer's work against what is left of
+/// the limit, and stops the cascade past it.
+pub(super) struct LayerWork<'o> {
+    pub(super) inner: &'o mut dyn Observer,
+    pub(super) left: f64,
+    pub(super) limit: f64,
+    /// The refusal, once the limit is passed.
+    pub(super) passed: Option<Error>,
+}
+
+impl Observer for LayerWork<'_> {
+    fn on_layer(&mut self, stats: &LayerStats) -> ControlFlow<()> {
+        self.left -= layer_work(stats);
+        // The next layer takes the survivors, at least as dear: refused
+        // before it runs, not after.
+        let next = LayerStats {
+            candidates: stats.survivors,
+            ..*stats
+        };
+        if self.left < layer_work(&next) {
+            self.passed = Some(loose_thresholds(
+                self.limit,
+                format!(
+                    "{} candidates entered {} layer {}",
+                    stats.candidates, stats.descriptor, stats.layer
+                ),
+            ));
+            return ControlFlow::Break(());
+        }
+        self.inner.on_layer(stats)
+    }
+
+    fn on_progress(&mut self, progress: &Progress) -> ControlFlow<()> {
+        self.inner.on_progress(progress)
+    }
+}
+
+/// The error for a part whose own work passes the limit: most candidates
+/// pass the layers, so each is checked at length.
+pub(super) fn loose_thresholds(limit: f64, what: String) -> Error {
+    Error::WorkLimit {
+        limit,
+        doing: what,
+        advice: "the layers let through far more candidates than copies can account for: \
+                 tighten the thresholds (--volume-threshold, --harmonics-threshold; \
+                 volumeThreshold, harmonicsThreshold in JavaScript), search a region of \
+                 the scene, or raise the limit (--max-part-work, maxPartWork)"
             .into(),
     }
 }
