@@ -172,7 +172,13 @@ fn a_write_killed_as_it_starts_leaves_the_previous_output_whole() {
     let dir = scratch("killed");
     let scene = common::scene_dir("real-saw-roller").join("scene.glb");
     let before = b"the previous output".repeat(10);
-    for signal in ["TERM", "INT", "KILL", "HUP"] {
+    // The signal as the write phase begins, and a few milliseconds into it
+    // (the GLB built, then the file written).
+    let delays = [0, 2, 5, 10, 20];
+    for (signal, delay) in ["TERM", "INT", "KILL", "HUP"]
+        .into_iter()
+        .flat_map(|s| delays.map(|d| (s, d)))
+    {
         std::fs::write(dir.join("out.glb"), &before).unwrap();
         let mut child = bin()
             .args([
@@ -187,13 +193,13 @@ fn a_write_killed_as_it_starts_leaves_the_previous_output_whole() {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        // The signal as soon as the write begins.
         let lines = BufReader::new(child.stderr.take().unwrap());
         for line in lines.lines() {
             if line.unwrap().contains("writing the instanced file") {
                 break;
             }
         }
+        std::thread::sleep(std::time::Duration::from_millis(delay));
         let killed = Command::new("kill")
             .args([&format!("-{signal}"), &child.id().to_string()])
             .status()
@@ -205,10 +211,10 @@ fn a_write_killed_as_it_starts_leaves_the_previous_output_whole() {
         if now != before {
             assert!(
                 load(&now, None).is_ok(),
-                "{signal}: a fragment at the target"
+                "{signal} +{delay} ms: a fragment at the target"
             );
         }
-        assert_eq!(names(&dir), ["out.glb"], "{signal}: {status:?}");
+        assert_eq!(names(&dir), ["out.glb"], "{signal} +{delay} ms: {status:?}");
     }
 }
 
