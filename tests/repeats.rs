@@ -829,6 +829,28 @@ fn hidden_flattened_and_sheared_nodes_are_written_as_gltf_allows_and_drawn_as_be
 }
 
 #[test]
+fn a_placement_a_reader_would_round_flat_keeps_its_vertices_moved() {
+    // Found by the fuzzer: coordinates near 1e37 placed by a parent's
+    // non-uniform scale over a turned child; the node's matrix read back
+    // in f32 flattened one triangle the loader had kept.
+    let bytes = include_bytes!(
+        "../fuzz/regressions/instance_gltf/sheared-looking-turn-of-huge-coordinates-read-back-in-f32"
+    );
+    let model = load_model(bytes, None, &NoResources).unwrap();
+    let (mesh, sources) = model.placed().unwrap();
+    let families = find_repeats(&mesh, Threads::Serial);
+    for placement in [Placement::Nodes, Placement::GpuInstancing] {
+        let instanced = instanced_model(&model, &mesh, &sources, &families, placement);
+        let back = load(&write_glb(&instanced.model).unwrap(), None).unwrap();
+        assert_eq!(
+            back.triangles().len(),
+            mesh.triangles().len(),
+            "{placement:?}"
+        );
+    }
+}
+
+#[test]
 fn a_copy_rounding_would_flatten_is_kept_as_it_was() {
     // Coordinates near 1e36 with triangles a few units across (found by
     // the fuzzer): the copy turned by a quarter turn matches within the

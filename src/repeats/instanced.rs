@@ -16,7 +16,7 @@ use crate::exec::Threads;
 use crate::math::Vec3;
 use crate::mesh::TriMesh;
 use crate::mesh::io::model::{
-    Attribute, IDENTITY, Matrix, Model, ModelMesh, ModelNode, Primitive, TriangleSource,
+    Attribute, IDENTITY, Matrix, Model, ModelMesh, ModelNode, Primitive, TriangleSource, Trs,
     determinant, multiply, transform_point, trs,
 };
 use crate::mesh::is_degenerate;
@@ -431,6 +431,37 @@ fn draws_every_triangle(mesh: &ModelMesh, at: &Matrix) -> bool {
     })
 }
 
+/// Whether `mesh` placed by `at` (whose parts are `trs`), read back as a
+/// glTF reader reads the node the writer makes of it (a matrix, or the
+/// parts for a singular one, in f32), has the same triangles flat as
+/// placed by `at` itself.
+fn reads_back_alike(mesh: &ModelMesh, at: &Matrix, trs: &Trs) -> bool {
+    let read = match trs.is_singular() {
+        true => {
+            let f = |v: [f64; 3]| glam::DVec3::from_array(v.map(|x| f64::from(x as f32)));
+            let [x, y, z, w] = trs.rotation.map(|x| f64::from(x as f32));
+            let m = glam::DMat4::from_scale_rotation_translation(
+                f(trs.scale),
+                glam::DQuat::from_xyzw(x, y, z, w),
+                f(trs.translation),
+            );
+            m.transpose().to_cols_array_2d()
+        }
+        false => at.map(|row| row.map(|v| f64::from(v as f32))),
+    };
+    mesh.primitives.iter().all(|primitive| {
+        let Ok(local) = primitive.positions() else {
+            return false;
+        };
+        let placed: Vec<[f32; 3]> = local.iter().map(|&p| transform_point(at, p)).collect();
+        let drawn: Vec<[f32; 3]> = local.iter().map(|&p| transform_point(&read, p)).collect();
+        primitive
+            .triangles
+            .iter()
+            .all(|&t| is_degenerate(&placed, t) == is_degenerate(&drawn, t))
+    })
+}
+
 /// The representative's triangles, grouped by source primitive, in the
 /// family's frame.
 fn family_mesh(model: &Model, sources: &[TriangleSource], family: &Family, f: usize) -> ModelMesh {
@@ -499,10 +530,12 @@ fn keep_the_rest(model: &Model, sources: &[TriangleSource], taken: &[bool], out:
         let source = &model.meshes[node.mesh];
         for (p, &placement) in node.placements.iter().enumerate() {
             // A shear (a non-uniform scale over a turned child) is no
-            // placement glTF can hold: its vertices are moved instead.
+            // placement glTF can hold, and one that a reader's f32 matrix
+            // would draw with other triangles flat (huge coordinates) is
+            // not what was read: their vertices are moved instead.
             let (at, moved_by) = match trs(&placement) {
-                Some(_) => (placement, IDENTITY),
-                None => (IDENTITY, placement),
+                Some(t) if reads_back_alike(source, &placement, &t) => (placement, IDENTITY),
+                _ => (IDENTITY, placement),
             };
             let mesh = match lost.get(&(n as u32, p as u32)) {
                 None if moved_by == IDENTITY => *whole.entry(node.mesh).or_insert_with(|| {
