@@ -218,30 +218,6 @@ fn a_write_killed_as_it_starts_leaves_the_previous_output_whole() {
     }
 }
 
-/// Every node of a written GLB as glTF allows it: a matrix only of
-/// perpendicular axes, none of zero length (else translation, rotation and
-/// scale properties).
-fn assert_nodes_are_turns_and_scales(json: &serde_json::Value, what: &str) {
-    use fast_reject::math::Vec3;
-    for (n, node) in json["nodes"].as_array().unwrap().iter().enumerate() {
-        let Some(m) = node["matrix"].as_array() else {
-            continue;
-        };
-        let m: Vec<f64> = m.iter().map(|v| v.as_f64().unwrap()).collect();
-        let axes: Vec<Vec3> = (0..3)
-            .map(|c| Vec3::new(m[4 * c], m[4 * c + 1], m[4 * c + 2]))
-            .collect();
-        assert!(
-            axes.iter().all(|a| a.length() > 0.0),
-            "{what}: node {n} singular: {m:?}"
-        );
-        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-            let cos = axes[i].normalize().dot(axes[j].normalize());
-            assert!(cos.abs() < 1e-5, "{what}: node {n} sheared: {m:?}");
-        }
-    }
-}
-
 #[test]
 fn hidden_flat_sheared_and_gpu_instanced_nodes_are_written_valid_and_whole() {
     let dir = scratch("nodes");
@@ -267,7 +243,7 @@ fn hidden_flat_sheared_and_gpu_instanced_nodes_are_written_valid_and_whole() {
                 "{name}"
             );
             let written = std::fs::read(dir.join("out.glb")).unwrap();
-            assert_nodes_are_turns_and_scales(&glb_chunks(&written).0, name);
+            common::nodes_are_turns_and_scales(&written).unwrap_or_else(|e| panic!("{name}: {e}"));
             let output = load(&written, None).unwrap();
             assert_eq!(output.triangles().len(), input.triangles().len(), "{name}");
             let sorted = |m: &fast_reject::mesh::TriMesh| {

@@ -728,33 +728,6 @@ fn copies_drawn_in_other_materials_are_other_parts_and_keep_their_attributes() {
     assert_eq!(unmatched_triangles(&out, &mesh, 1e-5), 0);
 }
 
-/// Whether every node of a written GLB is placed as glTF allows: a matrix
-/// of perpendicular axes none of zero length (anything else is written
-/// as translation, rotation and scale).
-fn nodes_are_turns_and_scales(glb: &[u8]) -> Result<(), String> {
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let json: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
-    for (n, node) in json["nodes"].as_array().unwrap().iter().enumerate() {
-        let Some(m) = node["matrix"].as_array() else {
-            continue;
-        };
-        let m: Vec<f64> = m.iter().map(|v| v.as_f64().unwrap()).collect();
-        let axes: Vec<Vec3> = (0..3)
-            .map(|c| Vec3::new(m[4 * c], m[4 * c + 1], m[4 * c + 2]))
-            .collect();
-        if axes.iter().any(|a| a.length() == 0.0) {
-            return Err(format!("node {n}: a singular matrix {m:?}"));
-        }
-        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-            let cos = axes[i].normalize().dot(axes[j].normalize());
-            if cos.abs() > 1e-5 {
-                return Err(format!("node {n}: a sheared matrix {m:?}"));
-            }
-        }
-    }
-    Ok(())
-}
-
 #[test]
 fn hidden_flattened_and_sheared_nodes_are_written_as_gltf_allows_and_drawn_as_before() {
     use fast_reject::mesh::io::model::{ModelMesh, ModelNode, trs};
@@ -817,7 +790,7 @@ fn hidden_flattened_and_sheared_nodes_are_written_as_gltf_allows_and_drawn_as_be
     for placement in [Placement::Nodes, Placement::GpuInstancing] {
         let instanced = instanced_model(&model, &mesh, &sources, &families, placement);
         let written = write_glb(&instanced.model).unwrap();
-        nodes_are_turns_and_scales(&written).unwrap();
+        common::nodes_are_turns_and_scales(&written).unwrap();
         let (back, _) = load_model(&written, None, &NoResources)
             .unwrap()
             .placed()

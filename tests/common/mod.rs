@@ -299,3 +299,30 @@ pub fn assert_found_exactly(
     }
     assert_eq!(found.len(), truth.len(), "a false hit: {found:?}");
 }
+
+/// Whether every node of a written GLB is placed as glTF allows: a matrix
+/// of perpendicular axes none of zero length (anything else is written
+/// as translation, rotation and scale).
+pub fn nodes_are_turns_and_scales(glb: &[u8]) -> Result<(), String> {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    for (n, node) in json["nodes"].as_array().unwrap().iter().enumerate() {
+        let Some(m) = node["matrix"].as_array() else {
+            continue;
+        };
+        let m: Vec<f64> = m.iter().map(|v| v.as_f64().unwrap()).collect();
+        let axes: Vec<fast_reject::math::Vec3> = (0..3)
+            .map(|c| fast_reject::math::Vec3::new(m[4 * c], m[4 * c + 1], m[4 * c + 2]))
+            .collect();
+        if axes.iter().any(|a| a.length() == 0.0) {
+            return Err(format!("node {n}: a singular matrix {m:?}"));
+        }
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let cos = axes[i].normalize().dot(axes[j].normalize());
+            if cos.abs() > 1e-5 {
+                return Err(format!("node {n}: a sheared matrix {m:?}"));
+            }
+        }
+    }
+    Ok(())
+}
